@@ -1,0 +1,28 @@
+#pragma once
+// SO(3) on rotation matrices: hat, Exp/Log and the right Jacobians used by on-manifold
+// optimization (Forster et al., "On-Manifold Preintegration", Eqs. 3-8).
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace liloc::so3 {
+
+// [v]x: the skew-symmetric matrix with hat(a) * b = a.cross(b).
+Eigen::Matrix3d hat(const Eigen::Vector3d& v);
+
+// Rodrigues' formula; exact to first order near zero.
+Eigen::Matrix3d exp(const Eigen::Vector3d& phi_rad);
+
+// Rotation vector of R, with norm in [0, pi]. Stable near 0 and near pi.
+Eigen::Vector3d log(const Eigen::Matrix3d& R);
+
+// Right Jacobian Jr(phi): Exp(phi + dphi) ~= Exp(phi) Exp(Jr(phi) dphi).
+Eigen::Matrix3d right_jacobian(const Eigen::Vector3d& phi_rad);
+
+// Inverse of the right Jacobian: Log(Exp(phi) Exp(dphi)) ~= phi + Jr^-1(phi) dphi.
+Eigen::Matrix3d right_jacobian_inverse(const Eigen::Vector3d& phi_rad);
+
+// Projects a nearly orthonormal matrix (accumulated round-off) back onto SO(3).
+Eigen::Matrix3d normalize(const Eigen::Matrix3d& R);
+
+}  // namespace liloc::so3

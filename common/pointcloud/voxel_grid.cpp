@@ -1,0 +1,56 @@
+#include "pointcloud/voxel_grid.hpp"
+
+#include <cmath>
+#include <unordered_map>
+
+namespace liloc {
+
+Eigen::Vector3i voxel_index(const Eigen::Vector3f& p, float voxel_m) {
+  return Eigen::Vector3i(static_cast<int>(std::floor(p.x() / voxel_m)),
+                         static_cast<int>(std::floor(p.y() / voxel_m)),
+                         static_cast<int>(std::floor(p.z() / voxel_m)));
+}
+
+uint64_t voxel_key(const Eigen::Vector3i& index) {
+  constexpr uint64_t kMask = (uint64_t{1} << 21) - 1;
+  constexpr int kOffset = 1 << 20;
+  return ((static_cast<uint64_t>(index.x() + kOffset) & kMask) << 42) |
+         ((static_cast<uint64_t>(index.y() + kOffset) & kMask) << 21) |
+         (static_cast<uint64_t>(index.z() + kOffset) & kMask);
+}
+
+PointCloud voxel_downsample(const PointCloud& cloud, float voxel_m) {
+  if (voxel_m <= 0.0f) {
+    return cloud;
+  }
+  struct Accumulator {
+    Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+    float intensity_sum = 0.0f;
+    int count = 0;
+  };
+  std::unordered_map<uint64_t, size_t> slot_of_voxel;
+  slot_of_voxel.reserve(cloud.size());
+  std::vector<Accumulator> slots;
+  slots.reserve(cloud.size() / 4 + 1);
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3f& p = cloud.points[i];
+    const auto [it, inserted] =
+        slot_of_voxel.try_emplace(voxel_key(voxel_index(p, voxel_m)), slots.size());
+    if (inserted) {
+      slots.emplace_back();
+    }
+    Accumulator& acc = slots[it->second];
+    acc.sum += p;
+    acc.intensity_sum += cloud.intensities[i];
+    ++acc.count;
+  }
+  PointCloud out;
+  out.reserve(slots.size());
+  for (const Accumulator& acc : slots) {
+    const float inv = 1.0f / static_cast<float>(acc.count);
+    out.push_back(acc.sum * inv, acc.intensity_sum * inv);
+  }
+  return out;
+}
+
+}  // namespace liloc

@@ -1,0 +1,22 @@
+#pragma once
+// Voxel-grid downsampling: one point per occupied voxel.
+
+#include <Eigen/Core>
+#include <cstdint>
+
+#include "pointcloud/point_cloud.hpp"
+
+namespace liloc {
+
+// Integer coordinates of the voxel holding p, for voxels of edge voxel_m.
+Eigen::Vector3i voxel_index(const Eigen::Vector3f& p, float voxel_m);
+
+// Packs a voxel index (each coordinate within +-2^20) into one hashable key.
+uint64_t voxel_key(const Eigen::Vector3i& index);
+
+// Replaces the points of each voxel by their centroid (and mean intensity). The output
+// keeps the order in which voxels were first hit, so it is deterministic.
+// voxel_m <= 0 returns the input unchanged.
+PointCloud voxel_downsample(const PointCloud& cloud, float voxel_m);
+
+}  // namespace liloc

@@ -1,0 +1,122 @@
+#pragma once
+// liloc's one interface over LCM: typed publish/subscribe with per-channel health
+// counters. Processes talk through this class only; algorithm code never sees it.
+//
+// URLs: udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304 (default, loopback only),
+// memq:// (in-process, deterministic, for tests and benchmarks), file:///x.lcmlog?speed=0
+// (read a log as if it were the bus).
+//
+// Robustness: a message that does not decode (wrong fingerprint, truncated or corrupt
+// bytes) or exceeds max_message_bytes is counted, logged (rate-limited) and skipped;
+// a handler that throws is counted and logged; sequence gaps per sender count as drops.
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace lcm {
+class LCM;
+class ReceiveBuffer;
+class Subscription;
+}  // namespace lcm
+
+namespace liloc::transport {
+
+struct TransportConfig {
+  std::string url = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304";
+  // Messages larger than this are neither published nor decoded. LiDAR scans of a
+  // 128-beam sensor stay below it; submaps and map updates are chunked to fit.
+  int max_message_bytes = 4 * 1024 * 1024;
+  // Messages LCM queues per subscription before it drops the oldest (LCM's default is 30,
+  // too few for a 400 Hz IMU while a scan is processed).
+  int queue_capacity = 1000;
+
+  template <class V>
+  void visit_fields(V& v) {
+    v("url", url);
+    v("max_message_bytes", max_message_bytes);
+    v("queue_capacity", queue_capacity);
+  }
+  void validate() const;
+};
+
+// Health of one subscription, cumulative since start.
+struct ChannelStats {
+  int64_t received = 0;        // decoded and handed to the handler
+  int64_t decode_errors = 0;   // wrong type fingerprint, truncated or corrupt
+  int64_t oversized = 0;       // larger than max_message_bytes, not decoded
+  int64_t dropped = 0;         // missing sequence numbers (per sender)
+  int64_t out_of_order = 0;    // sequence number not above the last one (repeat, reorder)
+  int64_t handler_errors = 0;  // the handler threw
+};
+
+struct ReceiveInfo {
+  const std::string& channel;
+  int64_t recv_utime;  // when LCM received the message (log time when replaying)
+  size_t bytes;
+};
+
+class Transport {
+ public:
+  explicit Transport(const TransportConfig& config = {});
+  ~Transport();
+  Transport(const Transport&) = delete;
+  Transport& operator=(const Transport&) = delete;
+
+  // Typed publish: sets msg.header.seq from a per-channel counter, then encodes.
+  // Returns false (counted, logged) if the message exceeds max_message_bytes or
+  // LCM refuses it.
+  template <class Msg>
+  bool publish(const std::string& channel, Msg& msg);
+
+  // Typed subscribe to one channel (exact name, no regex). The handler runs inside
+  // handle(); messages that fail to decode never reach it.
+  template <class Msg>
+  void subscribe(const std::string& channel,
+                 std::function<void(const Msg&, const ReceiveInfo&)> handler);
+
+  // Raw byte-level access, for recording and replay.
+  bool publish_raw(const std::string& channel, const void* data, size_t size);
+  using RawHandler = std::function<void(const void* data, size_t size, const ReceiveInfo&)>;
+  void subscribe_raw(const std::string& channel_regex, RawHandler handler);
+
+  // Dispatches messages. Waits up to timeout_ms for the first one, then also delivers
+  // whatever else is already queued. Returns the number handled; -1 when the provider
+  // ended (end of a file:// log) or failed.
+  int handle(int timeout_ms);
+
+  // Handles everything already queued without waiting (in-process memq:// pipelines).
+  int drain();
+
+  // Cumulative counters per subscribed channel, and publish failures.
+  std::map<std::string, ChannelStats> stats() const;
+  int64_t publish_errors() const { return publish_errors_; }
+
+  const TransportConfig& config() const { return config_; }
+
+ private:
+  struct SequenceTracker;
+  struct Subscription;
+  using Decoder = std::function<bool(const void* data, size_t size, const ReceiveInfo& info,
+                                     Subscription& sub)>;
+
+  void add_subscription(const std::string& channel, bool is_regex, Decoder decoder);
+  void on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Subscription* sub);
+  void warn(Subscription& sub, const std::string& what, int64_t count);
+  int64_t next_seq(const std::string& channel);
+  // Updates drop / order counters for a decoded message's sender and sequence number.
+  static void track_sequence(Subscription& sub, const std::string& sender, int64_t seq);
+
+  TransportConfig config_;
+  std::unique_ptr<lcm::LCM> lcm_;
+  std::vector<std::unique_ptr<Subscription>> subscriptions_;
+  std::map<std::string, int64_t> next_seq_;
+  int64_t publish_errors_ = 0;
+};
+
+}  // namespace liloc::transport
+
+#include "transport/transport_impl.hpp"

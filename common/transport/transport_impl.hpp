@@ -1,0 +1,56 @@
+#pragma once
+// Template part of transport.hpp; include transport.hpp, not this file.
+
+#include <map>
+#include <new>
+#include <stdexcept>
+#include <vector>
+
+namespace liloc::transport {
+
+struct Transport::Subscription {
+  std::string channel;
+  Decoder decode;
+  ChannelStats stats;
+  std::map<std::string, int64_t> last_seq_by_sender;
+  lcm::Subscription* lcm_subscription = nullptr;
+  Transport* owner = nullptr;
+};
+
+template <class Msg>
+bool Transport::publish(const std::string& channel, Msg& msg) {
+  msg.header.seq = next_seq(channel);
+  const int size = msg.getEncodedSize();
+  std::vector<uint8_t> buffer(static_cast<size_t>(size));
+  if (msg.encode(buffer.data(), 0, size) != size) {
+    ++publish_errors_;
+    return false;
+  }
+  return publish_raw(channel, buffer.data(), buffer.size());
+}
+
+template <class Msg>
+void Transport::subscribe(const std::string& channel,
+                          std::function<void(const Msg&, const ReceiveInfo&)> handler) {
+  add_subscription(channel, false,
+                   [handler = std::move(handler)](const void* data, size_t size,
+                                                  const ReceiveInfo& info, Subscription& sub) {
+                     Msg msg;
+                     int used = -1;
+                     try {
+                       used = msg.decode(data, 0, static_cast<int>(size));
+                     } catch (const std::bad_alloc&) {
+                       used = -1;
+                     } catch (const std::length_error&) {
+                       used = -1;
+                     }
+                     if (used < 0) {
+                       return false;
+                     }
+                     track_sequence(sub, msg.header.robot_id, msg.header.seq);
+                     handler(msg, info);
+                     return true;
+                   });
+}
+
+}  // namespace liloc::transport

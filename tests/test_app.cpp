@@ -1,0 +1,95 @@
+#include <gtest/gtest.h>
+
+#include "app/command_line.hpp"
+#include "app/program.hpp"
+
+namespace liloc {
+namespace {
+
+struct Parsed {
+  std::string config = "config/liloc.yaml";
+  double speed = 1.0;
+  int robots = 1;
+  bool verbose = false;
+  std::vector<std::string> files;
+};
+
+bool parse(std::vector<const char*> argv, Parsed& p, size_t required_files = 0) {
+  CommandLine cli("prog", "test program");
+  cli.add_option("config", &p.config, "config file");
+  cli.add_option("speed", &p.speed, "speed");
+  cli.add_option("robots", &p.robots, "robots");
+  cli.add_flag("verbose", &p.verbose, "more output");
+  cli.add_positional("FILES", &p.files, "inputs", required_files);
+  argv.insert(argv.begin(), "prog");
+  return cli.parse(static_cast<int>(argv.size()), argv.data());
+}
+
+TEST(CommandLine, ParsesOptionsFlagsAndPositionals) {
+  Parsed p;
+  ASSERT_TRUE(parse(
+      {"--config", "x.yaml", "--speed=2.5", "--robots", "8", "--verbose", "a.log", "b.log"}, p));
+  EXPECT_EQ(p.config, "x.yaml");
+  EXPECT_EQ(p.speed, 2.5);
+  EXPECT_EQ(p.robots, 8);
+  EXPECT_TRUE(p.verbose);
+  EXPECT_EQ(p.files, (std::vector<std::string>{"a.log", "b.log"}));
+}
+
+TEST(CommandLine, KeepsDefaultsWhenAbsent) {
+  Parsed p;
+  ASSERT_TRUE(parse({}, p));
+  EXPECT_EQ(p.config, "config/liloc.yaml");
+  EXPECT_EQ(p.robots, 1);
+}
+
+TEST(CommandLine, ErrorsNameTheOption) {
+  Parsed p;
+  EXPECT_THROW(
+      {
+        try {
+          parse({"--colour", "red"}, p);
+        } catch (const std::invalid_argument& e) {
+          EXPECT_NE(std::string(e.what()).find("--colour"), std::string::npos);
+          throw;
+        }
+      },
+      std::invalid_argument);
+  EXPECT_THROW(parse({"--speed", "fast"}, p), std::invalid_argument);
+  EXPECT_THROW(parse({"--robots", "3x"}, p), std::invalid_argument);
+  EXPECT_THROW(parse({"--config"}, p), std::invalid_argument);
+  EXPECT_THROW(parse({}, p, 1), std::invalid_argument);
+}
+
+TEST(CommandLine, HelpStopsParsingAndListsOptions) {
+  Parsed p;
+  CommandLine cli("prog", "test program");
+  cli.add_option("config", &p.config, "config file");
+  EXPECT_NE(cli.usage().find("--config VALUE"), std::string::npos);
+  EXPECT_NE(cli.usage().find("default: config/liloc.yaml"), std::string::npos);
+  EXPECT_FALSE(parse({"--help"}, p));
+}
+
+TEST(Program, RejectsUnknownLogLevel) {
+  EXPECT_THROW(setup_logging("chatty", "test"), std::invalid_argument);
+  EXPECT_NO_THROW(setup_logging("off", "test"));
+  EXPECT_NO_THROW(setup_logging("warn", "test"));
+}
+
+TEST(Program, ExitCodesReportOutcome) {
+  const char* ok_argv[] = {"prog", "--log-level", "error"};
+  CommandLine ok("prog", "");
+  EXPECT_EQ(run_program(ok, "prog", 3, ok_argv, [] { return 0; }), 0);
+
+  const char* bad_level[] = {"prog", "--log-level", "loud"};
+  CommandLine bad("prog", "");
+  EXPECT_EQ(run_program(bad, "prog", 3, bad_level, [] { return 0; }), 2);
+
+  CommandLine throwing("prog", "");
+  EXPECT_EQ(run_program(throwing, "prog", 3, ok_argv,
+                        []() -> int { throw std::runtime_error("map directory is corrupt"); }),
+            1);
+}
+
+}  // namespace
+}  // namespace liloc

@@ -1,0 +1,125 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "bridge/lcm_conversions.hpp"
+#include "bridge/pcl_conversions.hpp"
+#include "math/so3.hpp"
+
+namespace liloc::bridge {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+TEST(LcmConversions, PoseRoundTrip) {
+  const Eigen::Isometry3d T =
+      se3::make(so3::exp(Eigen::Vector3d(0.3, -1.2, 2.0)), Eigen::Vector3d(1, -2, 3));
+  const liloc::pose3_t msg = to_msg(T);
+  EXPECT_TRUE(from_msg(msg).isApprox(T, 1e-12));
+  // Quaternion order on the wire is w, x, y, z.
+  const liloc::pose3_t identity = to_msg(Eigen::Isometry3d::Identity());
+  EXPECT_EQ(identity.orientation[0], 1.0);
+}
+
+TEST(LcmConversions, RejectsNonFiniteOrNonUnitPoses) {
+  liloc::pose3_t msg = to_msg(Eigen::Isometry3d::Identity());
+  msg.position[1] = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(from_msg(msg), std::invalid_argument);
+  msg = to_msg(Eigen::Isometry3d::Identity());
+  msg.orientation[0] = 2.0;
+  EXPECT_THROW(from_msg(msg), std::invalid_argument);
+  msg.orientation[0] = 1.0 + 1e-5;  // round-off is normalized, not refused
+  EXPECT_NO_THROW(from_msg(msg));
+}
+
+TEST(LcmConversions, CovarianceIsRowMajor) {
+  Matrix6d cov = Matrix6d::Zero();
+  cov(0, 1) = 5.0;
+  double wire[36];
+  to_msg(cov, wire);
+  EXPECT_EQ(wire[1], 5.0);
+  EXPECT_EQ(wire[6], 0.0);
+  EXPECT_TRUE(covariance_from_msg(wire).isApprox(cov));
+}
+
+TEST(LcmConversions, ScanRoundTripKeepsEveryField) {
+  LidarScan scan;
+  scan.utime_us = 123456789;
+  scan.scan_period_s = 0.1f;
+  for (int i = 0; i < 5; ++i) {
+    LidarPoint p;
+    p.position_m = Eigen::Vector3f(i, -i, 0.5f * i);
+    p.intensity = 10.0f * i;
+    p.time_offset_s = 0.02f * i;
+    p.ring = static_cast<uint8_t>(31 - i);
+    scan.points.push_back(p);
+  }
+  const liloc::lidar_scan_t msg = to_msg(scan, "r1", "lidar", "hdl32");
+  EXPECT_EQ(msg.header.robot_id, "r1");
+  EXPECT_EQ(msg.sensor_model, "hdl32");
+  size_t dropped = 99;
+  const LidarScan back = from_msg(msg, &dropped);
+  EXPECT_EQ(dropped, 0u);
+  EXPECT_EQ(back.utime_us, scan.utime_us);
+  ASSERT_EQ(back.points.size(), 5u);
+  EXPECT_EQ(back.points[3].position_m, scan.points[3].position_m);
+  EXPECT_EQ(back.points[3].intensity, 30.0f);
+  EXPECT_EQ(back.points[3].time_offset_s, scan.points[3].time_offset_s);
+  EXPECT_EQ(back.points[3].ring, 28);
+}
+
+TEST(LcmConversions, NonFinitePointsAreDroppedAndCounted) {
+  LidarScan scan;
+  scan.points.resize(4);
+  scan.points[1].position_m.x() = kNaN;
+  scan.points[2].time_offset_s = std::numeric_limits<float>::infinity();
+  size_t dropped = 0;
+  EXPECT_EQ(from_msg(to_msg(scan, "r", "lidar", "m"), &dropped).points.size(), 2u);
+  EXPECT_EQ(dropped, 2u);
+
+  PointCloud cloud;
+  cloud.push_back(Eigen::Vector3f(1, 2, 3), 1.0f);
+  cloud.push_back(Eigen::Vector3f(kNaN, 2, 3), 1.0f);
+  cloud.push_back(Eigen::Vector3f(4, 5, 6), kNaN);  // a bad intensity only zeroes it
+  const PointCloud back = from_msg(to_msg(cloud), &dropped);
+  EXPECT_EQ(dropped, 1u);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back.intensities[1], 0.0f);
+}
+
+TEST(LcmConversions, ImuBatchRoundTripDropsNonFiniteSamples) {
+  std::vector<ImuSample> samples(3);
+  for (int i = 0; i < 3; ++i) {
+    samples[i].utime_us = 1000 + i;
+    samples[i].accel_mps2 = Eigen::Vector3d(0, 0, 9.8 + i);
+    samples[i].gyro_rps = Eigen::Vector3d(0.1 * i, 0, 0);
+  }
+  samples[1].gyro_rps.y() = std::nan("");
+  const liloc::imu_t msg = to_msg(samples, "r", "imu");
+  EXPECT_EQ(msg.header.utime, 1002);
+  size_t dropped = 0;
+  const std::vector<ImuSample> back = from_msg(msg, &dropped);
+  EXPECT_EQ(dropped, 1u);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[1].utime_us, 1002);
+  EXPECT_EQ(back[1].accel_mps2.z(), 11.8);
+}
+
+TEST(PclConversions, RoundTripAndInvalidPoints) {
+  PointCloud cloud;
+  cloud.push_back(Eigen::Vector3f(1, 2, 3), 4.0f);
+  cloud.push_back(Eigen::Vector3f(-1, 0, 2), 8.0f);
+  pcl::PointCloud<pcl::PointXYZI> pcl_cloud = to_pcl(cloud);
+  ASSERT_EQ(pcl_cloud.size(), 2u);
+  EXPECT_EQ(pcl_cloud[1].intensity, 8.0f);
+  pcl::PointXYZI invalid;
+  invalid.x = invalid.y = invalid.z = kNaN;
+  pcl_cloud.push_back(invalid);
+  const PointCloud back = from_pcl(pcl_cloud);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back.points[0], cloud.points[0]);
+}
+
+}  // namespace
+}  // namespace liloc::bridge

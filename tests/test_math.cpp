@@ -1,0 +1,142 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "math/framed_transform.hpp"
+#include "math/se3.hpp"
+#include "math/so3.hpp"
+
+namespace liloc {
+namespace {
+
+constexpr double kPi = M_PI;
+
+TEST(So3, ExpOfQuarterTurnAboutZ) {
+  const Eigen::Matrix3d R = so3::exp(Eigen::Vector3d(0, 0, kPi / 2));
+  Eigen::Matrix3d expected;
+  expected << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  EXPECT_TRUE(R.isApprox(expected, 1e-12)) << R;
+}
+
+TEST(So3, HatIsCrossProduct) {
+  const Eigen::Vector3d a(1, -2, 3), b(0.5, 4, -1);
+  EXPECT_TRUE((so3::hat(a) * b).isApprox(a.cross(b)));
+}
+
+TEST(So3, LogInvertsExpAcrossTheRange) {
+  for (const double angle : {0.0, 1e-9, 1e-4, 0.5, 2.0, 3.1, kPi - 1e-6}) {
+    const Eigen::Vector3d phi = angle * Eigen::Vector3d(1, 2, -0.5).normalized();
+    EXPECT_TRUE(so3::log(so3::exp(phi)).isApprox(phi, 1e-9) || phi.norm() < 1e-12)
+        << "angle " << angle << " -> " << so3::log(so3::exp(phi)).transpose();
+  }
+}
+
+TEST(So3, LogAtPiHasNormPi) {
+  const Eigen::Matrix3d R = so3::exp(Eigen::Vector3d(kPi, 0, 0));
+  EXPECT_NEAR(so3::log(R).norm(), kPi, 1e-9);
+  EXPECT_NEAR(std::abs(so3::log(R).x()), kPi, 1e-9);
+}
+
+// Jr(phi) relates a perturbation of phi to a right perturbation of Exp(phi).
+TEST(So3, RightJacobianMatchesFiniteDifferences) {
+  const Eigen::Vector3d phi(0.3, -0.7, 1.1);
+  const Eigen::Matrix3d Jr = so3::right_jacobian(phi);
+  const double h = 1e-6;
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3d d = h * Eigen::Vector3d::Unit(k);
+    const Eigen::Vector3d numeric = so3::log(so3::exp(phi).transpose() * so3::exp(phi + d)) / h;
+    EXPECT_TRUE(numeric.isApprox(Jr.col(k), 1e-5)) << numeric.transpose();
+  }
+  EXPECT_TRUE((Jr * so3::right_jacobian_inverse(phi)).isIdentity(1e-12));
+}
+
+TEST(So3, SmallAngleBranchesAgreeWithClosedForm) {
+  const Eigen::Vector3d tiny(1e-8, -2e-8, 3e-8);
+  EXPECT_TRUE(so3::right_jacobian(tiny).isApprox(Eigen::Matrix3d::Identity() - 0.5 * so3::hat(tiny),
+                                                 1e-14));
+  EXPECT_TRUE(so3::exp(tiny).isApprox(Eigen::Matrix3d::Identity() + so3::hat(tiny), 1e-14));
+}
+
+TEST(So3, NormalizeRepairsDrift) {
+  Eigen::Matrix3d R = so3::exp(Eigen::Vector3d(0.2, 0.1, -0.4));
+  R(0, 0) += 1e-4;
+  const Eigen::Matrix3d N = so3::normalize(R);
+  EXPECT_TRUE((N.transpose() * N).isIdentity(1e-12));
+  EXPECT_NEAR(N.determinant(), 1.0, 1e-12);
+}
+
+TEST(Se3, ExpOfPureTranslationIsTranslation) {
+  Vector6d xi;
+  xi << 1, 2, 3, 0, 0, 0;
+  const Eigen::Isometry3d T = se3::exp(xi);
+  EXPECT_TRUE(T.linear().isIdentity());
+  EXPECT_TRUE(T.translation().isApprox(Eigen::Vector3d(1, 2, 3)));
+}
+
+// Screw motion: a quarter turn about z while moving 1 m along the arc of radius 2/pi.
+TEST(Se3, ExpOfKnownScrewMotion) {
+  Vector6d xi;
+  xi << 1, 0, 0, 0, 0, kPi / 2;
+  const Eigen::Isometry3d T = se3::exp(xi);
+  // V = I + (1 - cos)/t^2 W + (t - sin)/t^3 W^2; V * (1, 0, 0) = (sin t / t, (1 - cos t)/t, 0).
+  const double t = kPi / 2;
+  EXPECT_TRUE(
+      T.translation().isApprox(Eigen::Vector3d(std::sin(t) / t, (1 - std::cos(t)) / t, 0), 1e-12))
+      << T.translation().transpose();
+  EXPECT_NEAR(se3::rotation_angle(T), t, 1e-12);
+}
+
+TEST(Se3, LogInvertsExp) {
+  Vector6d xi;
+  xi << 0.5, -1.0, 2.0, 0.3, -0.2, 1.5;
+  EXPECT_TRUE(se3::log(se3::exp(xi)).isApprox(xi, 1e-12));
+}
+
+TEST(Se3, CompositionFollowsFrameNames) {
+  const Eigen::Isometry3d T_map_odom =
+      se3::make(so3::exp(Eigen::Vector3d(0, 0, kPi / 2)), Eigen::Vector3d(10, 0, 0));
+  const Eigen::Isometry3d T_odom_body =
+      se3::make(Eigen::Matrix3d::Identity(), Eigen::Vector3d(1, 0, 0));
+  const Eigen::Isometry3d T_map_body = T_map_odom * T_odom_body;
+  EXPECT_TRUE(T_map_body.translation().isApprox(Eigen::Vector3d(10, 1, 0)));
+}
+
+TEST(Se3, InterpolateEndsAndMiddle) {
+  const Eigen::Isometry3d a = se3::make(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0));
+  const Eigen::Isometry3d b =
+      se3::make(so3::exp(Eigen::Vector3d(0, 0, 1.0)), Eigen::Vector3d(2, 4, 0));
+  EXPECT_TRUE(se3::interpolate(a, b, 0.0).isApprox(a));
+  EXPECT_TRUE(se3::interpolate(a, b, 1.0).isApprox(b, 1e-12));
+  const Eigen::Isometry3d mid = se3::interpolate(a, b, 0.5);
+  EXPECT_TRUE(mid.translation().isApprox(Eigen::Vector3d(1, 2, 0)));
+  EXPECT_NEAR(se3::rotation_angle(mid), 0.5, 1e-12);
+}
+
+TEST(FramedTransform, ComposesMatchingFrames) {
+  const FramedTransform map_odom{"map", "odom",
+                                 se3::make(Eigen::Matrix3d::Identity(), Eigen::Vector3d(5, 0, 0))};
+  const FramedTransform odom_body{"odom", "body",
+                                  se3::make(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 1, 0))};
+  const FramedTransform map_body = map_odom * odom_body;
+  EXPECT_EQ(map_body.parent, "map");
+  EXPECT_EQ(map_body.child, "body");
+  EXPECT_TRUE(map_body.T_parent_child.translation().isApprox(Eigen::Vector3d(5, 1, 0)));
+  const FramedTransform body_map = map_body.inverse();
+  EXPECT_EQ(body_map.parent, "body");
+  EXPECT_TRUE((body_map * map_body).T_parent_child.isApprox(Eigen::Isometry3d::Identity()));
+}
+
+TEST(FramedTransform, RefusesMismatchedFrames) {
+  const FramedTransform map_odom{"map", "odom", Eigen::Isometry3d::Identity()};
+  const FramedTransform map_body{"map", "body", Eigen::Isometry3d::Identity()};
+  try {
+    (void)(map_odom * map_body);
+    FAIL() << "composition of mismatched frames did not throw";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("T_map_odom"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("T_map_body"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace liloc
