@@ -5,6 +5,7 @@
 
 #include "bridge/lcm_conversions.hpp"
 #include "bridge/pcl_conversions.hpp"
+#include "bridge/sensor_stream.hpp"
 #include "math/so3.hpp"
 
 namespace liloc::bridge {
@@ -119,6 +120,44 @@ TEST(PclConversions, RoundTripAndInvalidPoints) {
   const PointCloud back = from_pcl(pcl_cloud);
   ASSERT_EQ(back.size(), 2u);
   EXPECT_EQ(back.points[0], cloud.points[0]);
+}
+
+TEST(SensorStream, LogsSamplesAndSweepsAsLiveIngestWould) {
+  const std::string path = ::testing::TempDir() + "liloc_sensor_stream.lcmlog";
+  {
+    transport::LogWriter log(path);
+    SensorStreamConfig config;
+    config.robot_id = "r2";
+    SensorStreamWriter writer(log, config);
+    ImuSample imu;
+    imu.utime_us = 1000000;
+    writer.write_imu(imu);
+    LidarScan scan;
+    scan.utime_us = 1000000;
+    scan.scan_period_s = 0.1f;
+    scan.points.resize(3);
+    writer.write_scan(scan);
+    imu.utime_us = 1005000;
+    writer.write_imu(imu);
+    EXPECT_EQ(writer.imu_written(), 2);
+    EXPECT_EQ(writer.scans_written(), 1);
+  }
+  transport::LogReader reader(path);
+  transport::LogEventView event;
+  ASSERT_TRUE(reader.next(event));
+  EXPECT_EQ(event.channel, "r2.IMU");
+  ASSERT_TRUE(reader.next(event));
+  EXPECT_EQ(event.channel, "r2.LIDAR");
+  EXPECT_EQ(event.utime, 1100000);  // available at the end of the sweep
+  liloc::lidar_scan_t scan;
+  ASSERT_TRUE(transport::decode(event, scan));
+  EXPECT_EQ(scan.header.utime, 1000000);
+  EXPECT_EQ(scan.num_points, 3);
+  ASSERT_TRUE(reader.next(event));
+  liloc::imu_t imu;
+  ASSERT_TRUE(transport::decode(event, imu));
+  EXPECT_EQ(imu.header.seq, 1);
+  std::remove(path.c_str());
 }
 
 }  // namespace

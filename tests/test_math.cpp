@@ -5,6 +5,7 @@
 #include "math/framed_transform.hpp"
 #include "math/se3.hpp"
 #include "math/so3.hpp"
+#include "math/trajectory.hpp"
 
 namespace liloc {
 namespace {
@@ -136,6 +137,30 @@ TEST(FramedTransform, RefusesMismatchedFrames) {
     EXPECT_NE(std::string(e.what()).find("T_map_odom"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("T_map_body"), std::string::npos) << e.what();
   }
+}
+
+TEST(Trajectory, InterpolatesBetweenPosesAndRefusesGaps) {
+  std::vector<StampedPose> poses;
+  poses.push_back({2.0, se3::make(so3::exp(Eigen::Vector3d(0, 0, 1.0)), Eigen::Vector3d(2, 0, 0))});
+  poses.push_back({0.0, Eigen::Isometry3d::Identity()});  // out of order on purpose
+  poses.push_back({10.0, Eigen::Isometry3d::Identity()});
+  const Trajectory trajectory(poses);
+  EXPECT_EQ(trajectory.start_time(), 0.0);
+  const auto mid = trajectory.at(1.0, 5.0);
+  ASSERT_TRUE(mid.has_value());
+  EXPECT_TRUE(mid->translation().isApprox(Eigen::Vector3d(1, 0, 0)));
+  EXPECT_NEAR(se3::rotation_angle(*mid), 0.5, 1e-12);
+  EXPECT_TRUE(trajectory.at(2.0, 0.1).has_value());   // exactly on a pose
+  EXPECT_FALSE(trajectory.at(5.0, 1.0).has_value());  // 8 s gap
+  EXPECT_FALSE(trajectory.at(-0.1, 5.0).has_value());
+  EXPECT_FALSE(trajectory.at(10.1, 5.0).has_value());
+  EXPECT_NEAR(trajectory.path_length_m(), 4.0, 1e-12);
+}
+
+TEST(Trajectory, RejectsDuplicateTimestamps) {
+  EXPECT_THROW(
+      Trajectory({{1.0, Eigen::Isometry3d::Identity()}, {1.0, Eigen::Isometry3d::Identity()}}),
+      std::invalid_argument);
 }
 
 }  // namespace
