@@ -25,11 +25,16 @@ function(liloc_module name)
   target_link_libraries(liloc_${name} PUBLIC ${ARG_DEPS} PRIVATE liloc_warnings)
 endfunction()
 
-# liloc_executable(<name> SOURCES ... DEPS ...): a process, tool or bench program.
+# liloc_executable(<name> SOURCES ... DEPS ...): a process, tool or bench program, built
+# as build/bin/<name>. The target is <name>_exe, because module libraries already use
+# names like liloc_sim (common/sim) that tools share (tools/liloc_sim).
 function(liloc_executable name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
-  add_executable(${name} ${ARG_SOURCES})
-  target_link_libraries(${name} PRIVATE ${ARG_DEPS} liloc_warnings)
+  add_executable(${name}_exe ${ARG_SOURCES})
+  set_target_properties(${name}_exe PROPERTIES OUTPUT_NAME ${name}
+                                               RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/bin)
+  target_include_directories(${name}_exe PRIVATE ${PROJECT_SOURCE_DIR}/tools)
+  target_link_libraries(${name}_exe PRIVATE ${ARG_DEPS} liloc_warnings)
 endfunction()
 
 # liloc_test(<module> DEPS ...): tests/test_<module>.cpp as one gtest binary, registered

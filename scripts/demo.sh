@@ -13,7 +13,7 @@ mkdir -p "$OUT"
 URL="udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
 
 echo "== 1. a log with every liloc message type"
-"$BIN"/tools/liloc_log/liloc_log sample "$OUT/sample.lcmlog" --log-level warn
+"$BIN"/bin/liloc_log sample "$OUT/sample.lcmlog" --log-level warn
 
 echo "== 2. lcm-logplayer -> loopback multicast -> lcm-logger"
 rm -f "$OUT/recorded.lcmlog"
@@ -28,6 +28,6 @@ wait $LOGGER 2>/dev/null || true
 trap - EXIT
 
 echo "== 3. what liloc_log decodes from the recording"
-"$BIN"/tools/liloc_log/liloc_log info "$OUT/recorded.lcmlog"
+"$BIN"/bin/liloc_log info "$OUT/recorded.lcmlog"
 echo
 echo "Browse live traffic with ./scripts/spy.sh (lcm-spy with liloc's types)."
