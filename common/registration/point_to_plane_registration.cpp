@@ -1,0 +1,235 @@
+#include "registration/point_to_plane_registration.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <stdexcept>
+
+#include "math/so3.hpp"
+
+namespace liloc {
+namespace {
+
+constexpr int kNeighbors = 5;  // paper Eq. 6
+
+// Normal equations accumulated over matched points.
+struct Accumulator {
+  Matrix6d H = Matrix6d::Zero();
+  Vector6d g = Vector6d::Zero();
+  double cost = 0.0;
+  double squared_residuals = 0.0;
+  int count = 0;
+
+  void add(const Accumulator& o) {
+    H += o.H;
+    g += o.g;
+    cost += o.cost;
+    squared_residuals += o.squared_residuals;
+    count += o.count;
+  }
+};
+
+struct Match {
+  Eigen::Vector3d point_body;
+  Eigen::Vector3d normal;
+  double offset;
+  double weight;  // planarity ("roughness") weight of Eq. 6
+};
+
+double cauchy_weight(double r, double scale) { return 1.0 / (1.0 + (r * r) / (scale * scale)); }
+
+double cauchy_cost(double r, double scale) {
+  return 0.5 * scale * scale * std::log1p((r * r) / (scale * scale));
+}
+
+// Matches every source point, at the current pose, to the plane of its neighbours.
+std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const VoxelHashMap& map,
+                             const Eigen::Isometry3d& T, const RegistrationConfig& config) {
+  std::vector<Match> matches(source.size());
+  std::vector<char> valid(source.size(), 0);
+  const Eigen::Isometry3f Tf = T.cast<float>();
+  const float radius = static_cast<float>(config.max_correspondence_m);
+#pragma omp parallel for num_threads(config.threads) schedule(static)
+  for (size_t i = 0; i < source.size(); ++i) {
+    const Neighbors<kNeighbors> n = map.nearest<kNeighbors>(Tf * source[i], radius);
+    if (n.count < kNeighbors) {
+      continue;
+    }
+    const std::optional<Plane> plane =
+        fit_plane(n.points.data(), n.count, config.max_plane_thickness_m);
+    if (!plane) {
+      continue;
+    }
+    matches[i] = {source[i].cast<double>(), plane->normal, plane->offset,
+                  1.0 - plane->thickness_m / config.max_plane_thickness_m * 0.5};
+    valid[i] = 1;
+  }
+  std::vector<Match> out;
+  out.reserve(source.size());
+  for (size_t i = 0; i < source.size(); ++i) {
+    if (valid[i]) {
+      out.push_back(matches[i]);
+    }
+  }
+  return out;
+}
+
+// Residuals, Jacobians and robust weights at pose T; the Hessian and gradient of
+// 0.5 * sum w rho(r) / sigma^2.
+Accumulator linearize(const std::vector<Match>& matches, const Eigen::Isometry3d& T,
+                      const RegistrationConfig& config) {
+  const Eigen::Matrix3d& R = T.linear();
+  const Eigen::Vector3d& t = T.translation();
+  const double info = 1.0 / (config.point_sigma_m * config.point_sigma_m);
+  Accumulator total;
+#pragma omp parallel num_threads(config.threads)
+  {
+    Accumulator local;
+#pragma omp for schedule(static) nowait
+    for (size_t i = 0; i < matches.size(); ++i) {
+      const Match& m = matches[i];
+      const double r = m.normal.dot(R * m.point_body + t) + m.offset;
+      const Eigen::Vector3d n_body = R.transpose() * m.normal;
+      Vector6d J;
+      J.head<3>() = m.normal;                    // d r / d dp
+      J.tail<3>() = m.point_body.cross(n_body);  // d r / d dtheta = -n^T R [p]x
+      const double w = m.weight * info * cauchy_weight(r, config.cauchy_scale_m);
+      local.H.noalias() += w * J * J.transpose();
+      local.g.noalias() += w * r * J;
+      local.cost += m.weight * info * cauchy_cost(r, config.cauchy_scale_m);
+      local.squared_residuals += r * r;
+      ++local.count;
+    }
+#pragma omp critical
+    total.add(local);
+  }
+  return total;
+}
+
+// Prior residual at T: e = T [-] T_prior, with its (approximately identity) Jacobian.
+void add_prior(const PosePrior& prior, const Eigen::Isometry3d& T, Accumulator& acc) {
+  const Vector6d e = pose_minus(T, prior.T_map_body);
+  acc.H += prior.information;
+  acc.g += prior.information * e;
+  acc.cost += 0.5 * e.dot(prior.information * e);
+}
+
+double eigen_ratio(const Eigen::Matrix3d& block) {
+  const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(block).eigenvalues();
+  return ev.maxCoeff() > 0.0 ? ev.minCoeff() / ev.maxCoeff() : 0.0;
+}
+}  // namespace
+
+void RegistrationConfig::validate() const {
+  if (max_iterations < 1 || threads < 1) {
+    throw std::invalid_argument("max_iterations and threads must be at least 1");
+  }
+  if (max_correspondence_m <= 0 || max_plane_thickness_m <= 0 || cauchy_scale_m <= 0 ||
+      point_sigma_m <= 0) {
+    throw std::invalid_argument("distances and sigmas must be positive");
+  }
+}
+
+Eigen::Isometry3d pose_plus(const Eigen::Isometry3d& T, const Vector6d& d) {
+  return se3::make(so3::normalize(T.linear() * so3::exp(d.tail<3>())),
+                   T.translation() + d.head<3>());
+}
+
+Vector6d pose_minus(const Eigen::Isometry3d& T, const Eigen::Isometry3d& T_ref) {
+  Vector6d d;
+  d.head<3>() = T.translation() - T_ref.translation();
+  d.tail<3>() = so3::log(T_ref.linear().transpose() * T.linear());
+  return d;
+}
+
+std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double max_thickness_m) {
+  if (count < 3) {
+    return std::nullopt;
+  }
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (int i = 0; i < count; ++i) {
+    mean += points[i].cast<double>();
+  }
+  mean /= count;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (int i = 0; i < count; ++i) {
+    const Eigen::Vector3d d = points[i].cast<double>() - mean;
+    cov.noalias() += d * d.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+  solver.computeDirect(cov);
+  const Eigen::Vector3d normal = solver.eigenvectors().col(0).normalized();
+  // Degenerate neighbourhoods (collinear points) have two small eigenvalues.
+  if (solver.eigenvalues()(1) < 1e-6) {
+    return std::nullopt;
+  }
+  double thickness = 0.0;
+  for (int i = 0; i < count; ++i) {
+    thickness = std::max(thickness, std::abs(normal.dot(points[i].cast<double>() - mean)));
+  }
+  if (thickness > max_thickness_m) {
+    return std::nullopt;
+  }
+  return Plane{normal, -normal.dot(mean), thickness};
+}
+
+RegistrationResult register_point_to_plane(const std::vector<Eigen::Vector3f>& source_body,
+                                           const VoxelHashMap& map,
+                                           const Eigen::Isometry3d& T_map_body_guess,
+                                           const std::optional<PosePrior>& prior,
+                                           const RegistrationConfig& config) {
+  RegistrationResult result;
+  Eigen::Isometry3d T = T_map_body_guess;
+  double lambda = 1e-6;  // Levenberg-Marquardt damping, relative to the diagonal
+  std::vector<Match> matches;
+  for (int iteration = 0; iteration < config.max_iterations; ++iteration) {
+    result.iterations = iteration + 1;
+    matches = associate(source_body, map, T, config);
+    Accumulator acc = linearize(matches, T, config);
+    if (prior) {
+      add_prior(*prior, T, acc);
+    }
+    if (acc.count < 6 && !prior) {
+      break;  // nothing to register against
+    }
+    // LM: accept the step if it lowers the cost with these correspondences, else damp.
+    Vector6d step = Vector6d::Zero();
+    bool accepted = false;
+    for (int attempt = 0; attempt < 8 && !accepted; ++attempt) {
+      Matrix6d A = acc.H;
+      A.diagonal() += lambda * acc.H.diagonal().cwiseMax(1e-9);
+      step = -A.ldlt().solve(acc.g);
+      const Eigen::Isometry3d candidate = pose_plus(T, step);
+      Accumulator next = linearize(matches, candidate, config);
+      if (prior) {
+        add_prior(*prior, candidate, next);
+      }
+      if (next.cost <= acc.cost) {
+        T = candidate;
+        lambda = std::max(lambda * 0.1, 1e-9);
+        accepted = true;
+      } else {
+        lambda *= 10.0;
+      }
+    }
+    if (!accepted || (step.head<3>().norm() < config.convergence_translation_m &&
+                      step.tail<3>().norm() < config.convergence_rotation_rad)) {
+      result.converged = true;
+      break;
+    }
+  }
+  // The information at the solution, from the last correspondences (a final search
+  // would cost as much as an iteration and changes nothing once converged).
+  const Accumulator final_acc = linearize(matches, T, config);
+  result.T_map_body = T;
+  result.lidar_information = final_acc.H;
+  result.correspondences = final_acc.count;
+  result.rms_residual_m =
+      final_acc.count > 0 ? std::sqrt(final_acc.squared_residuals / final_acc.count) : 0.0;
+  result.translation_eigen_ratio = eigen_ratio(final_acc.H.topLeftCorner<3, 3>());
+  result.rotation_eigen_ratio = eigen_ratio(final_acc.H.bottomRightCorner<3, 3>());
+  result.degenerate = result.translation_eigen_ratio < config.degeneracy_ratio ||
+                      result.rotation_eigen_ratio < config.degeneracy_ratio;
+  return result;
+}
+
+}  // namespace liloc

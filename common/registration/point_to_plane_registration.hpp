@@ -1,0 +1,89 @@
+#pragma once
+// Scan-to-map registration by point-to-plane distances (paper Eq. 6): every source point
+// is matched to the plane through its five nearest map points; the pose minimizing the
+// weighted distances (plus an optional Gaussian prior on the pose, which is how the
+// odometry's Kalman update and the constant-velocity model enter) is found by
+// Levenberg-Marquardt on SE(3), re-associating between iterations.
+//
+// Pose perturbation used throughout: T = T_hat [+] d with d = (dp, dtheta):
+// translation t = t_hat + dp (map frame), rotation R = R_hat Exp(dtheta) (body frame).
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <optional>
+#include <vector>
+
+#include "math/se3.hpp"
+#include "voxel_map/voxel_hash_map.hpp"
+
+namespace liloc {
+
+struct RegistrationConfig {
+  int max_iterations = 10;             // re-associations
+  double max_correspondence_m = 1.0;   // search radius of the 5 nearest neighbours
+  double max_plane_thickness_m = 0.1;  // every neighbour within this of the fitted plane
+  double cauchy_scale_m = 0.1;         // robust kernel: residuals well beyond are discounted
+  double point_sigma_m = 0.05;         // point-to-plane noise, sets the information scale
+  double convergence_translation_m = 1e-3;
+  double convergence_rotation_rad = 1e-4;
+  // Degenerate: the weakest translation (rotation) direction carries less than this
+  // fraction of the strongest one's information.
+  double degeneracy_ratio = 0.02;
+  int threads = 2;
+
+  template <class V>
+  void visit_fields(V& v) {
+    v("max_iterations", max_iterations);
+    v("max_correspondence_m", max_correspondence_m);
+    v("max_plane_thickness_m", max_plane_thickness_m);
+    v("cauchy_scale_m", cauchy_scale_m);
+    v("point_sigma_m", point_sigma_m);
+    v("convergence_translation_m", convergence_translation_m);
+    v("convergence_rotation_rad", convergence_rotation_rad);
+    v("degeneracy_ratio", degeneracy_ratio);
+    v("threads", threads);
+  }
+  void validate() const;
+};
+
+// A Gaussian prior on the pose: mean and information (6x6 over (dp, dtheta) at the mean).
+struct PosePrior {
+  Eigen::Isometry3d T_map_body = Eigen::Isometry3d::Identity();
+  Matrix6d information = Matrix6d::Zero();
+};
+
+struct RegistrationResult {
+  Eigen::Isometry3d T_map_body = Eigen::Isometry3d::Identity();
+  // Information of the LiDAR residuals alone at the solution, over (dp, dtheta).
+  Matrix6d lidar_information = Matrix6d::Zero();
+  int iterations = 0;
+  int correspondences = 0;      // points matched to a valid plane in the last iteration
+  double rms_residual_m = 0.0;  // fitness: RMS point-to-plane distance of the matches
+  bool converged = false;
+  bool degenerate = false;
+  // Smallest / largest eigenvalue of the translation and rotation blocks of
+  // lidar_information (the degeneracy measure).
+  double translation_eigen_ratio = 0.0;
+  double rotation_eigen_ratio = 0.0;
+};
+
+// A plane n.x + d = 0 through neighbouring points, if they are planar enough.
+struct Plane {
+  Eigen::Vector3d normal;  // unit
+  double offset;           // d
+  double thickness_m;      // largest point distance from the plane
+};
+std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double max_thickness_m);
+
+// Registers source points (body frame) to the map, starting at T_map_body_guess.
+RegistrationResult register_point_to_plane(const std::vector<Eigen::Vector3f>& source_body,
+                                           const VoxelHashMap& map,
+                                           const Eigen::Isometry3d& T_map_body_guess,
+                                           const std::optional<PosePrior>& prior,
+                                           const RegistrationConfig& config);
+
+// T [+] d and its inverse, in the perturbation convention above.
+Eigen::Isometry3d pose_plus(const Eigen::Isometry3d& T, const Vector6d& d);
+Vector6d pose_minus(const Eigen::Isometry3d& T, const Eigen::Isometry3d& T_ref);
+
+}  // namespace liloc

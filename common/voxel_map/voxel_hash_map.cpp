@@ -1,0 +1,70 @@
+#include "voxel_map/voxel_hash_map.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace liloc {
+
+void VoxelMapConfig::validate() const {
+  if (voxel_m <= 0.0 || min_point_spacing_m < 0.0 || keep_radius_m <= 0.0) {
+    throw std::invalid_argument("voxel_m and keep_radius_m must be positive");
+  }
+  if (max_points_per_voxel < 1 || max_points_per_voxel > VoxelHashMap::kMaxPointsPerVoxel) {
+    throw std::invalid_argument("max_points_per_voxel must be within 1 .. " +
+                                std::to_string(VoxelHashMap::kMaxPointsPerVoxel));
+  }
+}
+
+VoxelHashMap::VoxelHashMap(const VoxelMapConfig& config)
+    : config_(config), inv_voxel_(static_cast<float>(1.0 / config.voxel_m)) {
+  config_.validate();
+}
+
+Eigen::Vector3i VoxelHashMap::index_of(const Eigen::Vector3f& p) const {
+  return Eigen::Vector3i(static_cast<int>(std::floor(p.x() * inv_voxel_)),
+                         static_cast<int>(std::floor(p.y() * inv_voxel_)),
+                         static_cast<int>(std::floor(p.z() * inv_voxel_)));
+}
+
+void VoxelHashMap::insert(const std::vector<Eigen::Vector3f>& points) {
+  const float min_sq =
+      static_cast<float>(config_.min_point_spacing_m * config_.min_point_spacing_m);
+  for (const Eigen::Vector3f& p : points) {
+    Voxel& v = voxels_[voxel_key(index_of(p))];
+    if (v.count >= config_.max_points_per_voxel) {
+      continue;
+    }
+    bool crowded = false;
+    for (int i = 0; i < v.count && !crowded; ++i) {
+      crowded = (v.points[i] - p).squaredNorm() < min_sq;
+    }
+    if (!crowded) {
+      v.points[v.count++] = p;
+      ++num_points_;
+    }
+  }
+}
+
+void VoxelHashMap::remove_far(const Eigen::Vector3d& center) {
+  const double r2 = config_.keep_radius_m * config_.keep_radius_m;
+  for (auto it = voxels_.begin(); it != voxels_.end();) {
+    const Eigen::Vector3d p = it->second.points[0].cast<double>();
+    if ((p - center).squaredNorm() > r2) {
+      num_points_ -= it->second.count;
+      it = voxels_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+
+std::vector<Eigen::Vector3f> VoxelHashMap::points() const {
+  std::vector<Eigen::Vector3f> out;
+  out.reserve(num_points_);
+  for (const auto& [key, v] : voxels_) {
+    out.insert(out.end(), v.points.begin(), v.points.begin() + v.count);
+  }
+  return out;
+}
+
+}  // namespace liloc

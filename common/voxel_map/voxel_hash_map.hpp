@@ -1,0 +1,78 @@
+#pragma once
+// The incremental local map of the odometry: points in a hash of voxels, each voxel
+// holding at most max_points_per_voxel points kept at least min_point_spacing_m apart.
+// Memory is bounded twice: per voxel, and by dropping voxels beyond a radius around the
+// sensor (remove_far), so that it stays flat over long runs.
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+namespace liloc {
+
+struct VoxelMapConfig {
+  double voxel_m = 0.5;
+  int max_points_per_voxel = 20;
+  double min_point_spacing_m = 0.1;
+  double keep_radius_m = 150.0;  // remove_far() drops voxels farther than this
+
+  template <class V>
+  void visit_fields(V& v) {
+    v("voxel_m", voxel_m);
+    v("max_points_per_voxel", max_points_per_voxel);
+    v("min_point_spacing_m", min_point_spacing_m);
+    v("keep_radius_m", keep_radius_m);
+  }
+  void validate() const;
+};
+
+// Up to K nearest map points of a query, nearest first.
+template <int K>
+struct Neighbors {
+  std::array<Eigen::Vector3f, K> points;
+  std::array<float, K> squared_distances;
+  int count = 0;
+};
+
+class VoxelHashMap {
+ public:
+  static constexpr int kMaxPointsPerVoxel = 20;
+
+  explicit VoxelHashMap(const VoxelMapConfig& config);
+
+  // Adds points (map frame); a point is dropped if its voxel is full or holds a point
+  // closer than min_point_spacing_m.
+  void insert(const std::vector<Eigen::Vector3f>& points);
+
+  // The k nearest points within max_distance_m of q (searching q's voxel and its 26
+  // neighbours, exact when max_distance_m <= voxel_m).
+  template <int K>
+  Neighbors<K> nearest(const Eigen::Vector3f& q, float max_distance_m) const;
+
+  // Drops voxels whose centre is farther than keep_radius_m from `center`.
+  void remove_far(const Eigen::Vector3d& center);
+
+  size_t num_voxels() const { return voxels_.size(); }
+  size_t num_points() const { return num_points_; }
+  bool empty() const { return num_points_ == 0; }
+  std::vector<Eigen::Vector3f> points() const;
+  const VoxelMapConfig& config() const { return config_; }
+
+ private:
+  struct Voxel {
+    std::array<Eigen::Vector3f, kMaxPointsPerVoxel> points;
+    int count = 0;
+  };
+  Eigen::Vector3i index_of(const Eigen::Vector3f& p) const;
+
+  VoxelMapConfig config_;
+  float inv_voxel_;
+  std::unordered_map<uint64_t, Voxel> voxels_;
+  size_t num_points_ = 0;
+};
+
+}  // namespace liloc
+
+#include "voxel_map/voxel_hash_map_impl.hpp"

@@ -1,0 +1,83 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "voxel_map/voxel_hash_map.hpp"
+
+namespace liloc {
+namespace {
+
+TEST(VoxelHashMap, NearestMatchesBruteForce) {
+  VoxelMapConfig config;
+  config.voxel_m = 1.0;
+  config.min_point_spacing_m = 0.0;
+  VoxelHashMap map(config);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-5.0f, 5.0f);
+  std::vector<Eigen::Vector3f> points;
+  for (int i = 0; i < 2000; ++i) {
+    points.emplace_back(u(rng), u(rng), 0.2f * u(rng));
+  }
+  map.insert(points);
+  ASSERT_EQ(map.num_points(), map.points().size());
+  const std::vector<Eigen::Vector3f> stored = map.points();
+  for (int trial = 0; trial < 200; ++trial) {
+    const Eigen::Vector3f q(u(rng), u(rng), 0.0f);
+    const Neighbors<5> n = map.nearest<5>(q, 1.0f);
+    std::vector<float> brute;
+    for (const Eigen::Vector3f& p : stored) {
+      const float d = (p - q).squaredNorm();
+      if (d <= 1.0f) {
+        brute.push_back(d);
+      }
+    }
+    std::sort(brute.begin(), brute.end());
+    ASSERT_EQ(n.count, static_cast<int>(std::min<size_t>(5, brute.size())));
+    for (int k = 0; k < n.count; ++k) {
+      EXPECT_FLOAT_EQ(n.squared_distances[k], brute[k]);
+      EXPECT_FLOAT_EQ((n.points[k] - q).squaredNorm(), brute[k]);
+    }
+  }
+}
+
+TEST(VoxelHashMap, CapsPointsPerVoxelAndKeepsSpacing) {
+  VoxelMapConfig config;
+  config.voxel_m = 1.0;
+  config.max_points_per_voxel = 5;
+  config.min_point_spacing_m = 0.1;
+  VoxelHashMap map(config);
+  map.insert({{0.5f, 0.5f, 0.5f}, {0.52f, 0.5f, 0.5f}});  // the second is too close
+  EXPECT_EQ(map.num_points(), 1u);
+  std::vector<Eigen::Vector3f> many;
+  for (int i = 0; i < 9; ++i) {
+    many.emplace_back(0.1f * i + 0.05f, 0.2f, 0.2f);
+  }
+  map.insert(many);
+  EXPECT_EQ(map.num_points(), 5u);
+  EXPECT_EQ(map.num_voxels(), 1u);
+}
+
+TEST(VoxelHashMap, RemoveFarBoundsTheMap) {
+  VoxelMapConfig config;
+  config.voxel_m = 1.0;
+  config.keep_radius_m = 10.0;
+  VoxelHashMap map(config);
+  std::vector<Eigen::Vector3f> line;
+  for (int x = -50; x <= 50; ++x) {
+    line.emplace_back(x + 0.5f, 0.5f, 0.5f);
+  }
+  map.insert(line);
+  EXPECT_EQ(map.num_voxels(), 101u);
+  map.remove_far(Eigen::Vector3d(20.0, 0.0, 0.0));
+  EXPECT_EQ(map.num_voxels(), 20u);  // x + 0.5 within 10 m of 20: x = 10 .. 29
+  EXPECT_EQ(map.num_points(), 20u);
+}
+
+TEST(VoxelHashMap, ConfigIsValidated) {
+  VoxelMapConfig config;
+  config.max_points_per_voxel = 100;
+  EXPECT_THROW(VoxelHashMap{config}, std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace liloc
