@@ -58,6 +58,15 @@ TEST(So3, SmallAngleBranchesAgreeWithClosedForm) {
   EXPECT_TRUE(so3::exp(tiny).isApprox(Eigen::Matrix3d::Identity() + so3::hat(tiny), 1e-14));
 }
 
+TEST(So3, RollPitchYawComposeAsZyx) {
+  const Eigen::Matrix3d R = so3::from_rpy(Eigen::Vector3d(0, 0, kPi / 2));
+  EXPECT_TRUE((R * Eigen::Vector3d::UnitX()).isApprox(Eigen::Vector3d::UnitY()));
+  const Eigen::Vector3d rpy(0.1, -0.2, 0.3);
+  EXPECT_TRUE(so3::from_rpy(rpy).isApprox(so3::exp(Eigen::Vector3d(0, 0, 0.3)) *
+                                          so3::exp(Eigen::Vector3d(0, -0.2, 0)) *
+                                          so3::exp(Eigen::Vector3d(0.1, 0, 0))));
+}
+
 TEST(So3, NormalizeRepairsDrift) {
   Eigen::Matrix3d R = so3::exp(Eigen::Vector3d(0.2, 0.1, -0.4));
   R(0, 0) += 1e-4;

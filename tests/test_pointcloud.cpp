@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "pointcloud/voxel_grid.hpp"
+#include "pointcloud/voxel_index_table.hpp"
 
 namespace liloc {
 namespace {
@@ -48,6 +49,23 @@ TEST(VoxelGrid, DenseGridReducesToVoxelCount) {
   }
   // 2 m x 2 m at 0.5 m voxels: 16 voxels.
   EXPECT_EQ(voxel_downsample(cloud, 0.5f).size(), 16u);
+}
+
+TEST(VoxelIndexTable, GivesDenseIndicesInInsertionOrderAndGrows) {
+  VoxelIndexTable table(4);
+  for (uint64_t k = 0; k < 1000; ++k) {
+    const auto [index, inserted] = table.insert(k * 7919);
+    EXPECT_EQ(index, k);
+    EXPECT_TRUE(inserted);
+  }
+  EXPECT_EQ(table.insert(7919 * 5).first, 5u);
+  EXPECT_FALSE(table.insert(7919 * 5).second);
+  EXPECT_EQ(table.find(7919 * 999), 999u);
+  EXPECT_EQ(table.find(3), VoxelIndexTable::kMissing);
+  table.assign({42, 43});
+  EXPECT_EQ(table.size(), 2u);
+  EXPECT_EQ(table.find(43), 1u);
+  EXPECT_EQ(table.find(7919), VoxelIndexTable::kMissing);
 }
 
 }  // namespace

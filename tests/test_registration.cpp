@@ -63,8 +63,10 @@ TEST(Registration, RecoversAKnownPoseInARoom) {
       se3::make(so3::exp(Eigen::Vector3d(0.02, -0.01, 0.1)), Eigen::Vector3d(0.4, -0.3, 0.1));
   // The source sees the room from the true pose: source = T_true^-1 * target.
   const auto source = transformed(room(rng, 0.01f), T_true.inverse());
-  const RegistrationResult r = register_point_to_plane(source, map, Eigen::Isometry3d::Identity(),
-                                                       std::nullopt, RegistrationConfig{});
+  // Seen from 1.5 m above the middle of the floor.
+  const RegistrationResult r =
+      register_point_to_plane(source, map, Eigen::Isometry3d::Identity(), std::nullopt,
+                              RegistrationConfig{}, Eigen::Vector3d(5.0, 5.0, 1.5));
   EXPECT_TRUE(r.converged);
   EXPECT_LT((r.T_map_body.translation() - T_true.translation()).norm(), 0.01);
   EXPECT_LT(so3::log(T_true.linear().transpose() * r.T_map_body.linear()).norm(), 1e-3);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "math/so3.hpp"
 #include "sim/lidar_model.hpp"
@@ -48,20 +49,20 @@ TEST(World, RaycastHitsBoxCylinderAndGround) {
   const World world = flat_world(objects);
   RaycastScratch scratch;
   const Eigen::Vector3d o(0, 0, 1.5);
-  auto hit = world.raycast(o, Eigen::Vector3d::UnitX(), 100, 1, scratch);
+  auto hit = world.raycast(o, Eigen::Vector3d::UnitX(), 100, scratch);
   ASSERT_TRUE(hit);
   EXPECT_NEAR(hit->range_m, 19.5, 1e-9);
   EXPECT_TRUE(hit->normal.isApprox(Eigen::Vector3d(-1, 0, 0)));
-  hit = world.raycast(o, Eigen::Vector3d::UnitY(), 100, 2, scratch);
+  hit = world.raycast(o, Eigen::Vector3d::UnitY(), 100, scratch);
   ASSERT_TRUE(hit);
   EXPECT_NEAR(hit->range_m, 9.8, 1e-9);
   EXPECT_EQ(hit->object_id, 1u);
   const Eigen::Vector3d down = Eigen::Vector3d(1, 1, -1).normalized();
-  hit = world.raycast(o, down, 100, 3, scratch);
+  hit = world.raycast(o, down, 100, scratch);
   ASSERT_TRUE(hit);
   EXPECT_EQ(hit->object_id, World::kGroundId);
   EXPECT_NEAR((o + hit->range_m * down).z(), 0.0, 1e-9);
-  EXPECT_FALSE(world.raycast(o, Eigen::Vector3d(-1, 0, 0.5).normalized(), 100, 4, scratch));
+  EXPECT_FALSE(world.raycast(o, Eigen::Vector3d(-1, 0, 0.5).normalized(), 100, scratch));
 }
 
 TEST(World, YawedBoxAndRangeLimit) {
@@ -71,35 +72,70 @@ TEST(World, YawedBoxAndRangeLimit) {
   b.yaw_rad = M_PI / 4;  // a diamond seen from the origin: nearest corner at 10 - sqrt(2)
   const World world = flat_world({single(b)});
   RaycastScratch scratch;
-  auto hit = world.raycast(Eigen::Vector3d(0, 0, 1), Eigen::Vector3d::UnitX(), 100, 1, scratch);
+  auto hit = world.raycast(Eigen::Vector3d(0, 0, 1), Eigen::Vector3d::UnitX(), 100, scratch);
   ASSERT_TRUE(hit);
   EXPECT_NEAR(hit->range_m, 10 - std::sqrt(2.0), 1e-9);
-  EXPECT_FALSE(world.raycast(Eigen::Vector3d(0, 0, 1), Eigen::Vector3d::UnitX(), 5, 1, scratch));
+  EXPECT_FALSE(world.raycast(Eigen::Vector3d(0, 0, 1), Eigen::Vector3d::UnitX(), 5, scratch));
 }
 
-// Foliage stops rays with probability 1 - exp(-density * path length).
-TEST(World, FoliageTransmittanceFollowsDensity) {
+World tree_world() {
   Primitive crown;
   crown.shape = Primitive::Shape::kFoliage;
   crown.center = Eigen::Vector3d(10, 0, 5);
   crown.half_size = Eigen::Vector3d(2, 2, 2);
   crown.density_per_m = 0.5f;
-  const World world = flat_world({single(crown, ObjectClass::kTree)});
+  return flat_world({single(crown, ObjectClass::kTree)});
+}
+
+// Foliage stops a ray with probability close to 1 - exp(-density * path length).
+TEST(World, FoliageTransmittanceFollowsDensity) {
+  const World world = tree_world();
   RaycastScratch scratch;
-  int hits = 0;
-  const int n = 20000;
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-0.8, 0.8);
+  double hits = 0.0, expected = 0.0;
+  const int n = 4000;
+  const Eigen::Vector3d center(10, 0, 5);
   for (int i = 0; i < n; ++i) {
-    // Horizontal rays through the centre: 4 m of leaves.
-    const auto hit = world.raycast(Eigen::Vector3d(0, 0, 5), Eigen::Vector3d::UnitX(), 30,
-                                   static_cast<uint64_t>(i), scratch);
+    // Rays from around the origin in random directions through the (spherical, r = 2 m)
+    // crown, each through other leaves.
+    const Eigen::Vector3d origin(0, u(rng), 5 + u(rng));
+    const Eigen::Vector3d target = center + Eigen::Vector3d(u(rng), u(rng), u(rng));
+    const Eigen::Vector3d dir = (target - origin).normalized();
+    const double d2 = ((center - origin) - (center - origin).dot(dir) * dir).squaredNorm();
+    expected += 1.0 - std::exp(-0.5 * 2.0 * std::sqrt(4.0 - d2));
+    const auto hit = world.raycast(origin, dir, 30, scratch);
     if (hit && hit->object_id == 0) {
-      ++hits;
-      EXPECT_GE(hit->range_m, 8.0 - 1e-9);
-      EXPECT_LE(hit->range_m, 12.0 + 1e-9);
+      hits += 1.0;
+      EXPECT_LE((origin + hit->range_m * dir - center).norm(), 2.0 + 1e-6);
     }
   }
-  const double expected = 1.0 - std::exp(-0.5 * 4.0);
-  EXPECT_NEAR(static_cast<double>(hits) / n, expected, 0.01);
+  EXPECT_NEAR(hits / n, expected / n, 0.05);
+}
+
+// Leaves are fixed in the world: a ray from elsewhere aimed at a leaf hit reaches it (or
+// an earlier leaf), never passes through it. Returns do not depend on the viewpoint.
+TEST(World, FoliageLeavesAreTheSameFromEveryViewpoint) {
+  const World world = tree_world();
+  RaycastScratch scratch;
+  int checked = 0;
+  for (int i = 0; i < 400; ++i) {
+    const double angle = -0.15 + 0.3 * i / 400.0;
+    const Eigen::Vector3d o1(0, 0, 5.1);
+    const auto first =
+        world.raycast(o1, Eigen::Vector3d(std::cos(angle), std::sin(angle), 0), 30, scratch);
+    if (!first || first->object_id != 0) {
+      continue;
+    }
+    const Eigen::Vector3d leaf =
+        o1 + first->range_m * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0);
+    const Eigen::Vector3d o2(1.0, -2.0, 5.5);
+    const auto second = world.raycast(o2, (leaf - o2).normalized(), 30, scratch);
+    ASSERT_TRUE(second);
+    EXPECT_LE(second->range_m, (leaf - o2).norm() + 1e-6);
+    ++checked;
+  }
+  EXPECT_GT(checked, 100);
 }
 
 TEST(World, CampusIsDeterministicInItsSeed) {
@@ -114,8 +150,8 @@ TEST(World, CampusIsDeterministicInItsSeed) {
   for (int i = 0; i < 100; ++i) {
     const double angle = i * 0.0628;
     const Eigen::Vector3d dir(std::cos(angle), std::sin(angle), -0.05);
-    const auto ha = a.world.raycast(Eigen::Vector3d(150, 150, 2), dir.normalized(), 100, i, s1);
-    const auto hb = b.world.raycast(Eigen::Vector3d(150, 150, 2), dir.normalized(), 100, i, s2);
+    const auto ha = a.world.raycast(Eigen::Vector3d(150, 150, 2), dir.normalized(), 100, s1);
+    const auto hb = b.world.raycast(Eigen::Vector3d(150, 150, 2), dir.normalized(), 100, s2);
     ASSERT_EQ(ha.has_value(), hb.has_value());
     if (ha) {
       EXPECT_EQ(ha->range_m, hb->range_m);

@@ -288,6 +288,44 @@ TEST(LogFile, RecorderCapturesWhatTheBusCarries) {
   std::remove(path.c_str());
 }
 
+// A process can read a log as its bus and write its output to another log.
+TEST(LogFile, ReadsOneLogAndPublishesIntoAnother) {
+  const std::string in = temp_path("liloc_in.lcmlog");
+  const std::string out = temp_path("liloc_out.lcmlog");
+  {
+    LogWriter writer(in);
+    auto msg = bridge::make_sample<liloc::status_t>("r");
+    for (int i = 0; i < 20; ++i) {
+      msg.header.seq = i;
+      writer.write("IN", 1000000 + i * 1000, msg);
+    }
+  }
+  {
+    TransportConfig config;
+    config.url = "file://" + in + "?speed=0";
+    config.publish_url = "file://" + out + "?mode=w";
+    Transport bus(config);
+    bus.subscribe<liloc::status_t>("IN", [&](const liloc::status_t& m, const ReceiveInfo&) {
+      liloc::status_t copy = m;
+      bus.publish("OUT", copy);
+    });
+    int rounds = 0;
+    while (bus.handle(100) >= 0 && ++rounds < 1000) {
+    }
+    EXPECT_EQ(bus.stats().at("IN").received, 20);
+  }
+  LogReader reader(out);
+  LogEventView event;
+  int n = 0;
+  while (reader.next(event)) {
+    EXPECT_EQ(event.channel, "OUT");
+    ++n;
+  }
+  EXPECT_EQ(n, 20);
+  std::remove(in.c_str());
+  std::remove(out.c_str());
+}
+
 // Loopback multicast with a sized receive buffer: a 1 MB scan arrives whole. Bounded:
 // gives up after 5 s.
 TEST(Udpm, LargeMessagesArriveOverLoopback) {

@@ -7,7 +7,7 @@
 namespace liloc {
 namespace {
 
-TEST(VoxelHashMap, NearestMatchesBruteForce) {
+TEST(VoxelHashMap, NearestMatchesBruteForceWithinHalfAVoxel) {
   VoxelMapConfig config;
   config.voxel_m = 1.0;
   config.min_point_spacing_m = 0.0;
@@ -23,11 +23,12 @@ TEST(VoxelHashMap, NearestMatchesBruteForce) {
   const std::vector<Eigen::Vector3f> stored = map.points();
   for (int trial = 0; trial < 200; ++trial) {
     const Eigen::Vector3f q(u(rng), u(rng), 0.0f);
-    const Neighbors<5> n = map.nearest<5>(q, 1.0f);
+    // Exact within half a voxel.
+    const Neighbors<5> n = map.nearest<5>(q, 0.5f);
     std::vector<float> brute;
     for (const Eigen::Vector3f& p : stored) {
       const float d = (p - q).squaredNorm();
-      if (d <= 1.0f) {
+      if (d <= 0.25f) {
         brute.push_back(d);
       }
     }

@@ -62,6 +62,13 @@ Eigen::Matrix3d right_jacobian_inverse(const Eigen::Vector3d& phi_rad) {
          (1.0 / t2 - (1.0 + std::cos(theta)) / (2.0 * theta * std::sin(theta))) * W * W;
 }
 
+Eigen::Matrix3d from_rpy(const Eigen::Vector3d& rpy_rad) {
+  return (Eigen::AngleAxisd(rpy_rad.z(), Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(rpy_rad.y(), Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(rpy_rad.x(), Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
 Eigen::Matrix3d normalize(const Eigen::Matrix3d& R) {
   return Eigen::Quaterniond(R).normalized().toRotationMatrix();
 }

@@ -22,6 +22,9 @@ Eigen::Matrix3d right_jacobian(const Eigen::Vector3d& phi_rad);
 // Inverse of the right Jacobian: Log(Exp(phi) Exp(dphi)) ~= phi + Jr^-1(phi) dphi.
 Eigen::Matrix3d right_jacobian_inverse(const Eigen::Vector3d& phi_rad);
 
+// R = Rz(yaw) Ry(pitch) Rx(roll): the roll-pitch-yaw convention of every config file.
+Eigen::Matrix3d from_rpy(const Eigen::Vector3d& rpy_rad);
+
 // Projects a nearly orthonormal matrix (accumulated round-off) back onto SO(3).
 Eigen::Matrix3d normalize(const Eigen::Matrix3d& R);
 

@@ -1,7 +1,8 @@
 #include "pointcloud/voxel_grid.hpp"
 
 #include <cmath>
-#include <unordered_map>
+
+#include "pointcloud/voxel_index_table.hpp"
 
 namespace liloc {
 
@@ -28,18 +29,16 @@ PointCloud voxel_downsample(const PointCloud& cloud, float voxel_m) {
     float intensity_sum = 0.0f;
     int count = 0;
   };
-  std::unordered_map<uint64_t, size_t> slot_of_voxel;
-  slot_of_voxel.reserve(cloud.size());
+  VoxelIndexTable voxels(cloud.size() / 4 + 1);
   std::vector<Accumulator> slots;
   slots.reserve(cloud.size() / 4 + 1);
   for (size_t i = 0; i < cloud.size(); ++i) {
     const Eigen::Vector3f& p = cloud.points[i];
-    const auto [it, inserted] =
-        slot_of_voxel.try_emplace(voxel_key(voxel_index(p, voxel_m)), slots.size());
+    const auto [index, inserted] = voxels.insert(voxel_key(voxel_index(p, voxel_m)));
     if (inserted) {
       slots.emplace_back();
     }
-    Accumulator& acc = slots[it->second];
+    Accumulator& acc = slots[index];
     acc.sum += p;
     acc.intensity_sum += cloud.intensities[i];
     ++acc.count;

@@ -10,6 +10,10 @@ namespace liloc {
 namespace {
 
 constexpr int kNeighbors = 5;  // paper Eq. 6
+// Second over largest eigenvalue of the neighbours' scatter: below, they lie on a line.
+constexpr double kMinPlanarity = 0.25;
+// ... and spread in their second direction by more than range noise does (m, 1 sigma).
+constexpr double kMinSpread = 0.05;
 
 // Normal equations accumulated over matched points.
 struct Accumulator {
@@ -43,7 +47,8 @@ double cauchy_cost(double r, double scale) {
 
 // Matches every source point, at the current pose, to the plane of its neighbours.
 std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const VoxelHashMap& map,
-                             const Eigen::Isometry3d& T, const RegistrationConfig& config) {
+                             const Eigen::Isometry3d& T, const RegistrationConfig& config,
+                             const Eigen::Vector3d& sensor_origin_body) {
   std::vector<Match> matches(source.size());
   std::vector<char> valid(source.size(), 0);
   const Eigen::Isometry3f Tf = T.cast<float>();
@@ -57,6 +62,10 @@ std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const V
     const std::optional<Plane> plane =
         fit_plane(n.points.data(), n.count, config.max_plane_thickness_m);
     if (!plane) {
+      continue;
+    }
+    const Eigen::Vector3d ray_body = (source[i].cast<double>() - sensor_origin_body).normalized();
+    if (std::abs(plane->normal.dot(T.linear() * ray_body)) < config.min_incidence_cos) {
       continue;
     }
     matches[i] = {source[i].cast<double>(), plane->normal, plane->offset,
@@ -120,8 +129,8 @@ double eigen_ratio(const Eigen::Matrix3d& block) {
 }  // namespace
 
 void RegistrationConfig::validate() const {
-  if (max_iterations < 1 || threads < 1) {
-    throw std::invalid_argument("max_iterations and threads must be at least 1");
+  if (max_iterations < 1 || max_associations < 1 || threads < 1) {
+    throw std::invalid_argument("max_iterations, max_associations and threads must be at least 1");
   }
   if (max_correspondence_m <= 0 || max_plane_thickness_m <= 0 || cauchy_scale_m <= 0 ||
       point_sigma_m <= 0) {
@@ -155,11 +164,16 @@ std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double 
     const Eigen::Vector3d d = points[i].cast<double>() - mean;
     cov.noalias() += d * d.transpose();
   }
+  cov /= count;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
   solver.computeDirect(cov);
   const Eigen::Vector3d normal = solver.eigenvectors().col(0).normalized();
-  // Degenerate neighbourhoods (collinear points) have two small eigenvalues.
-  if (solver.eigenvalues()(1) < 1e-6) {
+  // The neighbours must span a patch, not a line: a sparse LiDAR samples the ground in
+  // rings, and five points along one ring, spread across it only by range noise, fit a
+  // "plane" that contains the ray. Such planes pin the sensor to its own rings and
+  // make the registration stick to zero motion.
+  if (solver.eigenvalues()(1) < kMinPlanarity * solver.eigenvalues()(2) ||
+      solver.eigenvalues()(1) < kMinSpread * kMinSpread) {
     return std::nullopt;
   }
   double thickness = 0.0;
@@ -176,14 +190,19 @@ RegistrationResult register_point_to_plane(const std::vector<Eigen::Vector3f>& s
                                            const VoxelHashMap& map,
                                            const Eigen::Isometry3d& T_map_body_guess,
                                            const std::optional<PosePrior>& prior,
-                                           const RegistrationConfig& config) {
+                                           const RegistrationConfig& config,
+                                           const Eigen::Vector3d& sensor_origin_body) {
   RegistrationResult result;
   Eigen::Isometry3d T = T_map_body_guess;
   double lambda = 1e-6;  // Levenberg-Marquardt damping, relative to the diagonal
   std::vector<Match> matches;
   for (int iteration = 0; iteration < config.max_iterations; ++iteration) {
     result.iterations = iteration + 1;
-    matches = associate(source_body, map, T, config);
+    // Re-associate while the pose still moves much; later steps refine with the same
+    // planes, which costs a fraction of a search.
+    if (iteration < config.max_associations) {
+      matches = associate(source_body, map, T, config, sensor_origin_body);
+    }
     Accumulator acc = linearize(matches, T, config);
     if (prior) {
       add_prior(*prior, T, acc);

@@ -19,24 +19,30 @@
 namespace liloc {
 
 struct RegistrationConfig {
-  int max_iterations = 10;             // re-associations
-  double max_correspondence_m = 1.0;   // search radius of the 5 nearest neighbours
-  double max_plane_thickness_m = 0.1;  // every neighbour within this of the fitted plane
-  double cauchy_scale_m = 0.1;         // robust kernel: residuals well beyond are discounted
-  double point_sigma_m = 0.05;         // point-to-plane noise, sets the information scale
+  int max_iterations = 8;               // Gauss-Newton / LM steps
+  int max_associations = 3;             // nearest-neighbour searches (the first iterations)
+  double max_correspondence_m = 1.0;    // search radius of the 5 nearest neighbours
+  double max_plane_thickness_m = 0.05;  // every neighbour within this of the fitted plane
+  double cauchy_scale_m = 0.1;          // robust kernel: residuals well beyond are discounted
+  // A plane seen nearly edge-on (|normal . ray| below this) is not used: along the ray
+  // the sensor's own range noise spreads points into false planes (see fit_plane).
+  double min_incidence_cos = 0.1;
+  double point_sigma_m = 0.05;  // point-to-plane noise, sets the information scale
   double convergence_translation_m = 1e-3;
   double convergence_rotation_rad = 1e-4;
   // Degenerate: the weakest translation (rotation) direction carries less than this
   // fraction of the strongest one's information.
   double degeneracy_ratio = 0.02;
-  int threads = 2;
+  int threads = 1;
 
   template <class V>
   void visit_fields(V& v) {
     v("max_iterations", max_iterations);
+    v("max_associations", max_associations);
     v("max_correspondence_m", max_correspondence_m);
     v("max_plane_thickness_m", max_plane_thickness_m);
     v("cauchy_scale_m", cauchy_scale_m);
+    v("min_incidence_cos", min_incidence_cos);
     v("point_sigma_m", point_sigma_m);
     v("convergence_translation_m", convergence_translation_m);
     v("convergence_rotation_rad", convergence_rotation_rad);
@@ -75,12 +81,13 @@ struct Plane {
 };
 std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double max_thickness_m);
 
-// Registers source points (body frame) to the map, starting at T_map_body_guess.
-RegistrationResult register_point_to_plane(const std::vector<Eigen::Vector3f>& source_body,
-                                           const VoxelHashMap& map,
-                                           const Eigen::Isometry3d& T_map_body_guess,
-                                           const std::optional<PosePrior>& prior,
-                                           const RegistrationConfig& config);
+// Registers source points (body frame; measured from sensor_origin_body) to the map,
+// starting at T_map_body_guess.
+RegistrationResult register_point_to_plane(
+    const std::vector<Eigen::Vector3f>& source_body, const VoxelHashMap& map,
+    const Eigen::Isometry3d& T_map_body_guess, const std::optional<PosePrior>& prior,
+    const RegistrationConfig& config,
+    const Eigen::Vector3d& sensor_origin_body = Eigen::Vector3d::Zero());
 
 // T [+] d and its inverse, in the perturbation convention above.
 Eigen::Isometry3d pose_plus(const Eigen::Isometry3d& T, const Vector6d& d);

@@ -36,7 +36,6 @@ LidarScan SessionSimulator::simulate_sweep(int64_t index, RaycastScratch& scratc
   const std::vector<LidarRay> rays = sweep_rays(lidar_, index);
   scan.points.reserve(rays.size());
   Random rng(hash_combine(seed_, static_cast<uint64_t>(index)));
-  const uint64_t sweep_hash = hash_combine(seed_ ^ 0x5bd1e995ULL, static_cast<uint64_t>(index));
   float pose_time = -1.0f;
   Eigen::Isometry3d T_world_lidar = Eigen::Isometry3d::Identity();
   for (size_t i = 0; i < rays.size(); ++i) {
@@ -52,8 +51,7 @@ LidarScan SessionSimulator::simulate_sweep(int64_t index, RaycastScratch& scratc
     const double noise = rng.normal(0.0, lidar_.range_noise_m);
     const double u_drop = rng.uniform();
     const double u_intensity = rng.uniform();
-    const auto hit = world_.raycast(T_world_lidar.translation(), dir, lidar_.max_range_m,
-                                    hash_combine(sweep_hash, i), scratch);
+    const auto hit = world_.raycast(T_world_lidar.translation(), dir, lidar_.max_range_m, scratch);
     if (!hit || hit->range_m < lidar_.min_range_m) {
       continue;
     }

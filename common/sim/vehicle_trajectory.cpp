@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "math/so3.hpp"
 #include "sim/random.hpp"
 
 namespace liloc::sim {
@@ -113,12 +114,6 @@ std::vector<PathSample> build_path(std::vector<Eigen::Vector2d> waypoints, doubl
   return out;
 }
 
-Eigen::Matrix3d rotation_zyx(double yaw, double pitch, double roll) {
-  return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
-          Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
-      .toRotationMatrix();
-}
 }  // namespace
 
 void MotionConfig::validate() const {
@@ -263,7 +258,7 @@ VehicleState VehicleTrajectory::state(double t) const {
 
   VehicleState st;
   const double yaw = p[3], pitch = p[4], roll = p[5];
-  st.T_world_body.linear() = rotation_zyx(yaw, pitch, roll);
+  st.T_world_body.linear() = so3::from_rpy(Eigen::Vector3d(roll, pitch, yaw));
   st.T_world_body.translation() = p.head<3>();
   st.velocity_world = dp.head<3>();
   st.acceleration_world = ddp.head<3>();

@@ -97,11 +97,18 @@ bool intersect_cylinder(const Primitive& p, const Eigen::Vector3d& o, const Eige
   return hit;
 }
 
-// Foliage: the ray enters an ellipsoid of leaves and is stopped after an exponentially
-// distributed depth (density hits per metre), so returns scatter through the crown and
-// some rays pass through it.
+// Foliage: an ellipsoid crown filled with leaves. Leaves are fixed in the world: the
+// crown is cut into cells of kLeafCellM, a cell holds a leaf with probability
+// 1 - exp(-density * cell) (so a ray loses on average `density` hits per metre), and a
+// leaf is a plane with a random point and orientation inside its cell, all drawn from a
+// hash of the cell. Rays from any viewpoint hit the same leaves, as in a real tree.
+constexpr double kLeafCellM = 0.25;
+// A ray through an occupied cell crosses its leaf about this often (measured), so cells
+// are filled more densely to keep `density` hits per metre.
+constexpr double kLeafCrossFraction = 0.45;
+
 bool intersect_foliage(const Primitive& p, const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-                       double t_max, uint64_t ray_hash, double& t, Eigen::Vector3d& n) {
+                       double t_max, double& t, Eigen::Vector3d& n) {
   const Eigen::Vector3d inv_r = p.half_size.cwiseInverse();
   const Eigen::Vector3d lo = (o - p.center).cwiseProduct(inv_r);
   const Eigen::Vector3d ld = d.cwiseProduct(inv_r);
@@ -118,22 +125,59 @@ bool intersect_foliage(const Primitive& p, const Eigen::Vector3d& o, const Eigen
   if (t_in >= t_out) {
     return false;
   }
-  const uint64_t h = hash_combine(ray_hash, p.object_id);
-  const double u = std::max(unit_from_hash(h), 1e-12);
-  const double depth = -std::log(u) / p.density_per_m;
-  if (t_in + depth >= t_out) {
-    return false;
+  const double occupancy = 1.0 - std::exp(-p.density_per_m * kLeafCellM / kLeafCrossFraction);
+  // 3D cell walk (Amanatides & Woo) from t_in to t_out.
+  const Eigen::Vector3d start = o + t_in * d;
+  Eigen::Vector3i cell;
+  Eigen::Vector3i step;
+  Eigen::Vector3d t_next, t_delta;
+  for (int k = 0; k < 3; ++k) {
+    cell[k] = static_cast<int>(std::floor(start[k] / kLeafCellM));
+    step[k] = d[k] > 0 ? 1 : -1;
+    if (std::abs(d[k]) < kEps) {
+      t_next[k] = t_delta[k] = std::numeric_limits<double>::infinity();
+    } else {
+      const double edge = (cell[k] + (d[k] > 0 ? 1 : 0)) * kLeafCellM;
+      t_next[k] = (edge - o[k]) / d[k];
+      t_delta[k] = kLeafCellM / std::abs(d[k]);
+    }
   }
-  t = t_in + depth;
-  // Leaves face every way; a random normal on the hemisphere facing the ray.
-  const double z = 2.0 * unit_from_hash(mix64(h)) - 1.0;
-  const double phi = 2.0 * M_PI * unit_from_hash(mix64(h + 1));
-  const double rxy = std::sqrt(std::max(0.0, 1.0 - z * z));
-  n = Eigen::Vector3d(rxy * std::cos(phi), rxy * std::sin(phi), z);
-  if (n.dot(d) > 0) {
-    n = -n;
+  double t_enter = t_in;
+  while (t_enter < t_out) {
+    int axis = 0;
+    for (int k = 1; k < 3; ++k) {
+      if (t_next[k] < t_next[axis]) {
+        axis = k;
+      }
+    }
+    const double t_exit = std::min(t_next[axis], t_out);
+    uint64_t h = hash_combine(p.object_id, static_cast<uint64_t>(static_cast<uint32_t>(cell.x())));
+    h = hash_combine(h, static_cast<uint64_t>(static_cast<uint32_t>(cell.y())));
+    h = hash_combine(h, static_cast<uint64_t>(static_cast<uint32_t>(cell.z())));
+    if (unit_from_hash(h) < occupancy) {
+      const Eigen::Vector3d leaf_point =
+          kLeafCellM * (cell.cast<double>() + Eigen::Vector3d(unit_from_hash(mix64(h + 1)),
+                                                              unit_from_hash(mix64(h + 2)),
+                                                              unit_from_hash(mix64(h + 3))));
+      const double z = 2.0 * unit_from_hash(mix64(h + 4)) - 1.0;
+      const double phi = 2.0 * M_PI * unit_from_hash(mix64(h + 5));
+      const double rxy = std::sqrt(std::max(0.0, 1.0 - z * z));
+      const Eigen::Vector3d leaf_normal(rxy * std::cos(phi), rxy * std::sin(phi), z);
+      const double denom = d.dot(leaf_normal);
+      if (std::abs(denom) > kEps) {
+        const double t_leaf = (leaf_point - o).dot(leaf_normal) / denom;
+        if (t_leaf >= t_enter - 1e-9 && t_leaf <= t_exit + 1e-9) {
+          t = t_leaf;
+          n = denom > 0 ? -leaf_normal : leaf_normal;
+          return true;
+        }
+      }
+    }
+    t_enter = t_exit;
+    cell[axis] += step[axis];
+    t_next[axis] += t_delta[axis];
   }
-  return true;
+  return false;
 }
 }  // namespace
 
@@ -213,7 +257,7 @@ void World::build_index() {
 
 std::optional<RayHit> World::raycast(const Eigen::Vector3d& origin,
                                      const Eigen::Vector3d& direction, double max_range_m,
-                                     uint64_t ray_hash, RaycastScratch& scratch) const {
+                                     RaycastScratch& scratch) const {
   if (scratch.last_ray.size() != primitives_.size()) {
     scratch.last_ray.assign(primitives_.size(), 0);
     scratch.ray_counter = 0;
@@ -248,7 +292,7 @@ std::optional<RayHit> World::raycast(const Eigen::Vector3d& origin,
                         hit = intersect_cylinder(p, origin, direction, best_t, t, n);
                         break;
                       case Primitive::Shape::kFoliage:
-                        hit = intersect_foliage(p, origin, direction, best_t, ray_hash, t, n);
+                        hit = intersect_foliage(p, origin, direction, best_t, t, n);
                         break;
                     }
                     if (hit && t < best_t) {

@@ -36,7 +36,7 @@ struct Primitive {
   Eigen::Vector3d half_size = Eigen::Vector3d::Ones();
   double yaw_rad = 0.0;        // boxes only
   float reflectivity = 0.3f;   // 0..1, scales the returned intensity
-  float density_per_m = 0.0f;  // foliage: expected hits per metre of ray inside
+  float density_per_m = 0.0f;  // foliage: expected leaf hits per metre of ray inside
 };
 
 struct WorldObject {
@@ -83,11 +83,9 @@ class World {
         Eigen::AlignedBox2d bounds, double grid_cell_m);
 
   // First surface along origin + t * direction (direction unit length) with
-  // 0 < t <= max_range_m. ray_hash seeds the foliage penetration draw, so the same ray
-  // always gives the same return.
+  // 0 < t <= max_range_m.
   std::optional<RayHit> raycast(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
-                                double max_range_m, uint64_t ray_hash,
-                                RaycastScratch& scratch) const;
+                                double max_range_m, RaycastScratch& scratch) const;
 
   // Distance from p to the nearest surface (0 inside foliage), for checking simulated
   // scans; considers primitives within search_radius_m.

@@ -31,6 +31,13 @@ Transport::Transport(const TransportConfig& config)
                              "' (for udpm on loopback check the multicast route; for file:// "
                              "check the path)");
   }
+  if (!config.publish_url.empty() && config.publish_url != config.url) {
+    publish_lcm_ = std::make_unique<lcm::LCM>(config.publish_url);
+    if (!publish_lcm_->good()) {
+      throw std::runtime_error("cannot open LCM provider '" + config.publish_url +
+                               "' for publishing");
+    }
+  }
   if (config.url.rfind("udpm://", 0) == 0 &&
       config.url.find("recv_buf_size") == std::string::npos) {
     spdlog::warn(
@@ -53,7 +60,8 @@ bool Transport::publish_raw(const std::string& channel, const void* data, size_t
     }
     return false;
   }
-  if (lcm_->publish(channel, data, static_cast<unsigned int>(size)) != 0) {
+  lcm::LCM& out = publish_lcm_ ? *publish_lcm_ : *lcm_;
+  if (out.publish(channel, data, static_cast<unsigned int>(size)) != 0) {
     ++publish_errors_;
     if (should_log(publish_errors_)) {
       spdlog::error("LCM failed to publish {} bytes on {}", size, channel);

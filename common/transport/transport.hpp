@@ -27,6 +27,10 @@ namespace liloc::transport {
 
 struct TransportConfig {
   std::string url = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304";
+  // Where to publish, if not on `url`: a process reading a log
+  // (url: file:///in.lcmlog?speed=0) writes its output to another one
+  // (publish_url: file:///out.lcmlog?mode=w), or onto the live bus.
+  std::string publish_url;
   // Messages larger than this are neither published nor decoded. LiDAR scans of a
   // 128-beam sensor stay below it; submaps and map updates are chunked to fit.
   int max_message_bytes = 4 * 1024 * 1024;
@@ -37,6 +41,7 @@ struct TransportConfig {
   template <class V>
   void visit_fields(V& v) {
     v("url", url);
+    v("publish_url", publish_url);
     v("max_message_bytes", max_message_bytes);
     v("queue_capacity", queue_capacity);
   }
@@ -112,6 +117,7 @@ class Transport {
 
   TransportConfig config_;
   std::unique_ptr<lcm::LCM> lcm_;
+  std::unique_ptr<lcm::LCM> publish_lcm_;  // only with a separate publish_url
   std::vector<std::unique_ptr<Subscription>> subscriptions_;
   std::map<std::string, int64_t> next_seq_;
   int64_t publish_errors_ = 0;

@@ -16,7 +16,7 @@ void VoxelMapConfig::validate() const {
 }
 
 VoxelHashMap::VoxelHashMap(const VoxelMapConfig& config)
-    : config_(config), inv_voxel_(static_cast<float>(1.0 / config.voxel_m)) {
+    : config_(config), inv_voxel_(static_cast<float>(1.0 / config.voxel_m)), index_(1 << 15) {
   config_.validate();
 }
 
@@ -30,7 +30,11 @@ void VoxelHashMap::insert(const std::vector<Eigen::Vector3f>& points) {
   const float min_sq =
       static_cast<float>(config_.min_point_spacing_m * config_.min_point_spacing_m);
   for (const Eigen::Vector3f& p : points) {
-    Voxel& v = voxels_[voxel_key(index_of(p))];
+    const auto [index, inserted] = index_.insert(voxel_key(index_of(p)));
+    if (inserted) {
+      voxels_.emplace_back();
+    }
+    Voxel& v = voxels_[index];
     if (v.count >= config_.max_points_per_voxel) {
       continue;
     }
@@ -47,21 +51,27 @@ void VoxelHashMap::insert(const std::vector<Eigen::Vector3f>& points) {
 
 void VoxelHashMap::remove_far(const Eigen::Vector3d& center) {
   const double r2 = config_.keep_radius_m * config_.keep_radius_m;
-  for (auto it = voxels_.begin(); it != voxels_.end();) {
-    const Eigen::Vector3d p = it->second.points[0].cast<double>();
-    if ((p - center).squaredNorm() > r2) {
-      num_points_ -= it->second.count;
-      it = voxels_.erase(it);
-    } else {
-      ++it;
+  std::vector<uint64_t> kept_keys;
+  kept_keys.reserve(voxels_.size());
+  size_t kept = 0;
+  for (size_t i = 0; i < voxels_.size(); ++i) {
+    if ((voxels_[i].points[0].cast<double>() - center).squaredNorm() > r2) {
+      num_points_ -= voxels_[i].count;
+      continue;
     }
+    voxels_[kept++] = voxels_[i];
+    kept_keys.push_back(index_.keys()[i]);
+  }
+  if (kept != voxels_.size()) {
+    voxels_.resize(kept);
+    index_.assign(std::move(kept_keys));
   }
 }
 
 std::vector<Eigen::Vector3f> VoxelHashMap::points() const {
   std::vector<Eigen::Vector3f> out;
   out.reserve(num_points_);
-  for (const auto& [key, v] : voxels_) {
+  for (const Voxel& v : voxels_) {
     out.insert(out.end(), v.points.begin(), v.points.begin() + v.count);
   }
   return out;

@@ -7,15 +7,18 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
-#include <unordered_map>
 #include <vector>
+
+#include "pointcloud/voxel_index_table.hpp"
 
 namespace liloc {
 
 struct VoxelMapConfig {
-  double voxel_m = 0.5;
+  double voxel_m = 1.0;
   int max_points_per_voxel = 20;
-  double min_point_spacing_m = 0.1;
+  // Map points closer than this add nothing but sampling patterns and noise to the
+  // planes fitted through them.
+  double min_point_spacing_m = 0.3;
   double keep_radius_m = 150.0;  // remove_far() drops voxels farther than this
 
   template <class V>
@@ -46,8 +49,8 @@ class VoxelHashMap {
   // closer than min_point_spacing_m.
   void insert(const std::vector<Eigen::Vector3f>& points);
 
-  // The k nearest points within max_distance_m of q (searching q's voxel and its 26
-  // neighbours, exact when max_distance_m <= voxel_m).
+  // The k nearest points within max_distance_m of q among the 8 voxels around q: exact
+  // within voxel_m / 2, approximate beyond.
   template <int K>
   Neighbors<K> nearest(const Eigen::Vector3f& q, float max_distance_m) const;
 
@@ -62,14 +65,16 @@ class VoxelHashMap {
 
  private:
   struct Voxel {
-    std::array<Eigen::Vector3f, kMaxPointsPerVoxel> points;
     int count = 0;
+    std::array<Eigen::Vector3f, kMaxPointsPerVoxel> points;
   };
+
   Eigen::Vector3i index_of(const Eigen::Vector3f& p) const;
 
   VoxelMapConfig config_;
   float inv_voxel_;
-  std::unordered_map<uint64_t, Voxel> voxels_;
+  VoxelIndexTable index_;      // voxel key -> index into voxels_
+  std::vector<Voxel> voxels_;  // dense, in index order
   size_t num_points_ = 0;
 };
 

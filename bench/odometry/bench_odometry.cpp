@@ -1,0 +1,271 @@
+// bench_odometry: the LiDAR-inertial odometry over simulated sessions (every LiDAR
+// model, campus and corridor). Each session is simulated in memory and fed to the
+// odometry as the process would receive it; the estimate is scored against ground truth.
+// Prints a table and writes bench/results/odometry.json with, per run: session, world,
+// lidar, rpe_percent, ate_m, ms_median, ms_p99, peak_rss_mb.
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "app/program.hpp"
+#include "config/yaml_config.hpp"
+#include "eval/json_writer.hpp"
+#include "eval/latency_stats.hpp"
+#include "eval/trajectory_metrics.hpp"
+#include "odometry/lidar_inertial_odometry.hpp"
+#include "sim/lidar_model.hpp"
+#include "sim/random.hpp"
+#include "sim/simulation_config.hpp"
+
+namespace {
+using namespace liloc;
+
+std::vector<std::string> split(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream s(text);
+  for (std::string item; std::getline(s, item, ',');) {
+    out.push_back(item);
+  }
+  return out;
+}
+
+// Resident set size now and at its peak, MB (Linux).
+std::pair<double, double> rss_mb() {
+  std::ifstream status("/proc/self/status");
+  double now = 0.0, peak = 0.0;
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("VmRSS:", 0) == 0) {
+      now = std::stod(line.substr(6)) / 1024.0;
+    } else if (line.rfind("VmHWM:", 0) == 0) {
+      peak = std::stod(line.substr(6)) / 1024.0;
+    }
+  }
+  return {now, peak};
+}
+
+struct Run {
+  std::string world, lidar, session;
+  bool use_imu = true;
+  eval::TrajectoryMetrics metrics;
+  eval::LatencyStats latency;
+  // Median per-stage milliseconds: preprocess, propagate + deskew, register, map, keyframe.
+  std::array<double, 5> stage_median_ms{};
+  double peak_rss_mb = 0.0;
+  double rss_quarter_mb = 0.0;
+  double rss_end_mb = 0.0;
+  size_t map_points = 0;
+  int64_t degenerate_scans = 0;
+  int64_t keyframes = 0;
+  double accel_bias_error = 0.0;
+  double gyro_bias_error = 0.0;
+};
+
+Run run_session(const std::string& world_kind, const std::string& lidar, const std::string& session,
+                bool use_imu, double length_scale, int trace, bool clean_imu,
+                const std::string& config_path) {
+  sim::SimulationConfig sim_config;
+  sim_config.world.kind = world_kind;
+  sim_config.sessions.a_length_m *= length_scale;
+  sim_config.sessions.b_inside_m *= length_scale;
+  sim_config.sessions.b_excursion_m *= length_scale;
+  sim_config.sessions.c_length_m *= length_scale;
+  sim_config.sessions.d_length_m *= length_scale;
+  const sim::GeneratedWorld generated = sim::generate_world(sim_config.world);
+  sim::World world = generated.world;
+  const uint64_t seed = sim::hash_combine(static_cast<uint64_t>(sim_config.world.seed),
+                                          static_cast<uint64_t>(session[0]));
+  const sim::SessionPlan plan = sim::plan_session(
+      session, generated.world, generated.mapped_max_x_m, sim_config.sessions, seed);
+  if (plan.day > 0) {
+    sim::apply_day_changes(world, sim_config.world.seed + 1, sim_config.changes);
+  }
+  const sim::VehicleTrajectory trajectory(world, plan.waypoints, sim_config.motion, seed);
+  if (clean_imu) {
+    sim_config.imu.accel_noise_density = sim_config.imu.gyro_noise_density = 1e-9;
+    sim_config.imu.accel_bias_random_walk = sim_config.imu.gyro_bias_random_walk = 0.0;
+    sim_config.imu.initial_accel_bias_sigma_mps2 = sim_config.imu.initial_gyro_bias_sigma_rps = 0.0;
+  }
+  const sim::SensorRig rig = sim_config.rig.rig();
+  const sim::SessionSimulator simulator(world, trajectory, sim::lidar_spec(lidar), rig,
+                                        sim_config.imu, seed, sim_config.start_utime);
+
+  OdometryConfig config =
+      config_path.empty() ? OdometryConfig{} : load_config<OdometryConfig>(config_path, "odometry");
+  config.use_imu = use_imu;
+  config.lidar_translation_m = sim_config.rig.lidar_translation_m;
+  config.lidar_rpy_deg = sim_config.rig.lidar_rpy_deg;
+  config.max_range_m = sim::lidar_spec(lidar).max_range_m;
+  LidarInertialOdometry odometry(config);
+
+  Run run;
+  run.world = world_kind;
+  run.lidar = lidar;
+  run.session = session;
+  run.use_imu = use_imu;
+  std::vector<StampedPose> estimate;
+  std::vector<double> cycle_ms;
+  std::array<std::vector<double>, 5> stage_ms;
+  const int64_t total_sweeps = simulator.num_sweeps();
+  const auto consume = [&](const std::vector<OdometryEstimate>& out) {
+    for (const OdometryEstimate& e : out) {
+      estimate.push_back({e.utime_us * 1e-6, e.T_odom_body});
+      if (trace > 0 && estimate.size() % trace == 0) {
+        const double t = e.utime_us * 1e-6 - sim_config.start_utime * 1e-6;
+        const Eigen::Isometry3d gt = trajectory.pose(t);
+        const Eigen::Isometry3d gt0 =
+            trajectory.pose(estimate.front().time_s - sim_config.start_utime * 1e-6);
+        const Eigen::Isometry3d rel_gt = gt0.inverse() * gt;
+        std::fprintf(stderr,
+                     "t %6.1f est %8.2f %8.2f %6.2f gt %8.2f %8.2f %6.2f fit %.3f corr %5d "
+                     "deg %d v %.2f ba %.3f %.3f %.3f bg %.4f %.4f %.4f ms %.1f\n",
+                     t, e.T_odom_body.translation().x(), e.T_odom_body.translation().y(),
+                     e.T_odom_body.translation().z(), rel_gt.translation().x(),
+                     rel_gt.translation().y(), rel_gt.translation().z(), e.fitness_m,
+                     e.correspondences, e.degenerate ? 1 : 0, e.velocity_odom.norm(),
+                     e.accel_bias.x(), e.accel_bias.y(), e.accel_bias.z(), e.gyro_bias.x(),
+                     e.gyro_bias.y(), e.gyro_bias.z(), e.timings.total_ms);
+      }
+      cycle_ms.push_back(e.timings.total_ms);
+      const double stages[5] = {e.timings.preprocess_ms, e.timings.propagate_ms,
+                                e.timings.register_ms, e.timings.map_ms, e.timings.keyframe_ms};
+      for (int k = 0; k < 5; ++k) {
+        stage_ms[k].push_back(stages[k]);
+      }
+      if (static_cast<int64_t>(cycle_ms.size()) == total_sweeps / 4) {
+        run.rss_quarter_mb = rss_mb().first;
+      }
+    }
+  };
+  simulator.run([&](const ImuSample& s) { odometry.add_imu(s); },
+                [&](const LidarScan& scan) {
+                  odometry.add_scan(scan);
+                  consume(odometry.process());
+                },
+                [](double) {}, 2);
+  consume(odometry.flush());
+  run.rss_end_mb = rss_mb().first;
+  run.peak_rss_mb = rss_mb().second;
+  run.map_points = odometry.map_points();
+  run.degenerate_scans = odometry.counters().degenerate_scans;
+  run.keyframes = odometry.counters().keyframes;
+  if (use_imu) {
+    // The true biases drift only a little (random walk) from their turn-on values.
+    run.accel_bias_error = (odometry.state().ba - simulator.initial_accel_bias()).norm();
+    run.gyro_bias_error = (odometry.state().bg - simulator.initial_gyro_bias()).norm();
+  }
+  eval::EvalConfig eval_config;
+  eval_config.alignment = eval::AlignmentMode::kSe3;
+  run.metrics =
+      eval::evaluate_trajectory(simulator.ground_truth(100.0), Trajectory(estimate), eval_config);
+  run.latency = eval::compute_latency_stats(cycle_ms);
+  for (int k = 0; k < 5; ++k) {
+    run.stage_median_ms[k] = eval::compute_latency_stats(stage_ms[k]).median_ms;
+  }
+  return run;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string worlds = "campus,corridor";
+  std::string lidars = "all";
+  std::string sessions = "A";
+  std::string json_path = "bench/results/odometry.json";
+  double length_scale = 1.0;
+  bool lidar_only = false;
+  int trace = 0;
+  bool clean_imu = false;
+  std::string config_path;
+  CommandLine cli("bench_odometry", "LiDAR-inertial odometry on simulated sessions.");
+  cli.add_option("worlds", &worlds, "campus, corridor or both");
+  cli.add_option("lidar", &lidars, "comma list of models, or all");
+  cli.add_option("sessions", &sessions, "campus sessions (the corridor runs A)");
+  cli.add_option("length-scale", &length_scale, "scale the sessions' route lengths");
+  cli.add_option("json", &json_path, "result file ('' for none)");
+  cli.add_flag("lidar-only", &lidar_only, "run without the IMU (constant-velocity model)");
+  cli.add_option("config", &config_path, "YAML with an 'odometry' section (tuning)");
+  cli.add_flag("clean-imu", &clean_imu, "simulate a noise- and bias-free IMU (diagnosis)");
+  cli.add_option("trace", &trace, "print every N-th estimate against ground truth (0: none)");
+  return run_program(cli, "bench_odometry", argc, argv, [&]() -> int {
+    const std::vector<std::string> models = lidars == "all" ? sim::lidar_models() : split(lidars);
+    std::vector<Run> runs;
+    std::printf(
+        "| world | lidar | session | imu | length (m) | ATE (m) | RPE (%%) | RPE (deg/100m) | "
+        "ms median | ms p99 | ms max | RSS 1/4 (MB) | RSS end (MB) | peak RSS (MB) | "
+        "map pts | degen | |ba err| | |bg err| | stages ms (pre/prop/reg/map/kf) |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for (const std::string& world : split(worlds)) {
+      for (const std::string& session :
+           world == "campus" ? split(sessions) : std::vector<std::string>{"A"}) {
+        for (const std::string& model : models) {
+          const Run r = run_session(world, model, session, !lidar_only, length_scale, trace,
+                                    clean_imu, config_path);
+          std::printf(
+              "| %s | %s | %s | %s | %.0f | %.3f | %.3f | %.3f | %.1f | %.1f | %.1f | "
+              "%.0f | %.0f | %.0f | %zu | %lld | %.4f | %.5f | %.1f/%.1f/%.1f/%.1f/%.1f |\n",
+              r.world.c_str(), r.lidar.c_str(), r.session.c_str(), r.use_imu ? "yes" : "no",
+              r.metrics.path_length_m, r.metrics.ate_position_rmse_m,
+              r.metrics.rpe_translation_percent, r.metrics.rpe_rotation_deg_per_100m,
+              r.latency.median_ms, r.latency.p99_ms, r.latency.max_ms, r.rss_quarter_mb,
+              r.rss_end_mb, r.peak_rss_mb, r.map_points, static_cast<long long>(r.degenerate_scans),
+              r.accel_bias_error, r.gyro_bias_error, r.stage_median_ms[0], r.stage_median_ms[1],
+              r.stage_median_ms[2], r.stage_median_ms[3], r.stage_median_ms[4]);
+          std::fflush(stdout);
+          runs.push_back(r);
+        }
+      }
+    }
+    if (json_path.empty()) {
+      return 0;
+    }
+    eval::JsonWriter json;
+    json.begin_object().key("benchmark").string("odometry").key("runs").begin_array();
+    for (const Run& r : runs) {
+      json.begin_object()
+          .key("session")
+          .string(r.session)
+          .key("world")
+          .string(r.world)
+          .key("lidar")
+          .string(r.lidar)
+          .key("imu")
+          .boolean(r.use_imu)
+          .key("length_m")
+          .number(r.metrics.path_length_m)
+          .key("rpe_percent")
+          .number(r.metrics.rpe_translation_percent)
+          .key("rpe_deg_per_100m")
+          .number(r.metrics.rpe_rotation_deg_per_100m)
+          .key("ate_m")
+          .number(r.metrics.ate_position_rmse_m)
+          .key("ms_median")
+          .number(r.latency.median_ms)
+          .key("ms_p99")
+          .number(r.latency.p99_ms)
+          .key("ms_max")
+          .number(r.latency.max_ms)
+          .key("peak_rss_mb")
+          .number(r.peak_rss_mb)
+          .key("rss_quarter_mb")
+          .number(r.rss_quarter_mb)
+          .key("rss_end_mb")
+          .number(r.rss_end_mb)
+          .key("map_points")
+          .integer(static_cast<int64_t>(r.map_points))
+          .key("degenerate_scans")
+          .integer(r.degenerate_scans)
+          .key("accel_bias_error_mps2")
+          .number(r.accel_bias_error)
+          .key("gyro_bias_error_rps")
+          .number(r.gyro_bias_error)
+          .end_object();
+    }
+    json.end_array().end_object();
+    std::filesystem::create_directories(std::filesystem::path(json_path).parent_path());
+    std::ofstream(json_path) << json.str() << "\n";
+    return 0;
+  });
+}

@@ -1,0 +1,93 @@
+#include "odometry/imu_propagation.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "math/so3.hpp"
+
+namespace liloc {
+
+void ImuNoiseConfig::validate() const {
+  if (accel_noise_density <= 0 || gyro_noise_density <= 0 || accel_bias_random_walk < 0 ||
+      gyro_bias_random_walk < 0 || gravity_mps2 <= 0 || max_sample_gap_s <= 0) {
+    throw std::invalid_argument(
+        "IMU noise densities, gravity and max_sample_gap_s must be positive");
+  }
+}
+
+PropagationStats propagate(NavState& x, StateMatrix& P, int64_t t_from, int64_t t_to,
+                           const std::vector<ImuSample>& samples, const ImuNoiseConfig& noise,
+                           MotionProfile* motion) {
+  PropagationStats stats;
+  if (samples.empty()) {
+    throw std::invalid_argument("propagation needs at least one IMU sample");
+  }
+  size_t k = 0;
+  int64_t t = t_from;
+  Eigen::Vector3d omega = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_local = x.g;
+  while (t < t_to) {
+    while (k + 1 < samples.size() && samples[k + 1].utime_us <= t) {
+      ++k;
+    }
+    const bool has_next = k + 1 < samples.size();
+    const int64_t t_next = has_next ? std::min(t_to, samples[k + 1].utime_us) : t_to;
+    const double dt = (t_next - t) * 1e-6;
+    // Mid-point of the two samples around the step (the held sample beyond the last).
+    const ImuSample& a = samples[k];
+    const ImuSample& b = has_next ? samples[k + 1] : samples[k];
+    const double spacing_s = has_next ? (b.utime_us - a.utime_us) * 1e-6 : 0.0;
+    double inflation = 1.0;
+    if (spacing_s > noise.max_sample_gap_s) {
+      ++stats.gaps;
+      inflation = spacing_s / noise.max_sample_gap_s;
+    }
+    if (!has_next) {
+      // Past the last sample the IMU is a guess: trust it less the longer it lasts.
+      stats.extrapolated_s += dt;
+      const double since_sample = (t_next - a.utime_us) * 1e-6;
+      inflation = std::max(inflation, since_sample / noise.max_sample_gap_s);
+    }
+    omega = 0.5 * (a.gyro_rps + b.gyro_rps) - x.bg;
+    const Eigen::Vector3d acc = 0.5 * (a.accel_mps2 + b.accel_mps2) - x.ba;
+    accel_local = x.R * acc + x.g;
+    if (motion != nullptr) {
+      motion->add({t, x.R, x.p, x.v, omega, accel_local});
+    }
+    // Error-state transition F and process noise Q over dt.
+    const Eigen::Matrix3d R = x.R;
+    const Eigen::Matrix3d acc_hat = so3::hat(acc);
+    const Eigen::Matrix<double, 3, 2> G = gravity_jacobian(x.g);
+    StateMatrix F = StateMatrix::Identity();
+    F.block<3, 3>(kRot, kRot) = so3::exp(-omega * dt);
+    F.block<3, 3>(kRot, kBg) = -so3::right_jacobian(omega * dt) * dt;
+    F.block<3, 3>(kPos, kRot) = -0.5 * R * acc_hat * dt * dt;
+    F.block<3, 3>(kPos, kVel) = Eigen::Matrix3d::Identity() * dt;
+    F.block<3, 3>(kPos, kBa) = -0.5 * R * dt * dt;
+    F.block<3, 2>(kPos, kGrav) = 0.5 * G * dt * dt;
+    F.block<3, 3>(kVel, kRot) = -R * acc_hat * dt;
+    F.block<3, 3>(kVel, kBa) = -R * dt;
+    F.block<3, 2>(kVel, kGrav) = G * dt;
+    StateVector q = StateVector::Zero();
+    q.segment<3>(kRot).setConstant(noise.gyro_noise_density * noise.gyro_noise_density * dt);
+    q.segment<3>(kVel).setConstant(noise.accel_noise_density * noise.accel_noise_density * dt);
+    q.segment<3>(kBg).setConstant(noise.gyro_bias_random_walk * noise.gyro_bias_random_walk * dt);
+    q.segment<3>(kBa).setConstant(noise.accel_bias_random_walk * noise.accel_bias_random_walk * dt);
+    q.segment<2>(kGrav).setConstant(noise.gravity_direction_random_walk *
+                                    noise.gravity_direction_random_walk * dt);
+    P = F * P * F.transpose();
+    P.diagonal() += inflation * q;
+
+    x.p += x.v * dt + 0.5 * accel_local * dt * dt;
+    x.v += accel_local * dt;
+    x.R = so3::normalize(x.R * so3::exp(omega * dt));
+    t = t_next;
+  }
+  if (motion != nullptr) {
+    motion->add({t_to, x.R, x.p, x.v, omega, accel_local});
+  }
+  P = 0.5 * (P + P.transpose());
+  return stats;
+}
+
+}  // namespace liloc

@@ -1,0 +1,54 @@
+#pragma once
+// IMU propagation of the odometry's state and covariance (error-state transition of
+// FAST-LIO2 / Sola's ESKF with right-perturbed rotation), and the motion profile it
+// leaves behind for deskewing.
+
+#include <cstdint>
+#include <vector>
+
+#include "imu/imu_sample.hpp"
+#include "odometry/motion_profile.hpp"
+#include "odometry/navigation_state.hpp"
+
+namespace liloc {
+
+struct ImuNoiseConfig {
+  // Continuous-time densities; defaults are those used for NCLT's MS25 IMU.
+  double accel_noise_density = 3.99e-3;     // m/s^2/sqrt(Hz)
+  double gyro_noise_density = 1.56e-3;      // rad/s/sqrt(Hz)
+  double accel_bias_random_walk = 6.44e-5;  // m/s^3/sqrt(Hz)
+  double gyro_bias_random_walk = 3.56e-5;   // rad/s^2/sqrt(Hz)
+  double gravity_mps2 = 9.81;
+  // The local map's "up" can drift slowly from gravity's (tilt errors baked into the
+  // map); a small random walk of the gravity direction lets the filter follow it instead
+  // of blaming the accelerometer bias.
+  double gravity_direction_random_walk = 1e-4;  // rad/sqrt(s)
+  double max_sample_gap_s = 0.05;               // a longer silence between samples is an IMU gap
+
+  template <class V>
+  void visit_fields(V& v) {
+    v("accel_noise_density", accel_noise_density);
+    v("gyro_noise_density", gyro_noise_density);
+    v("accel_bias_random_walk", accel_bias_random_walk);
+    v("gyro_bias_random_walk", gyro_bias_random_walk);
+    v("gravity_mps2", gravity_mps2);
+    v("gravity_direction_random_walk", gravity_direction_random_walk);
+    v("max_sample_gap_s", max_sample_gap_s);
+  }
+  void validate() const;
+};
+
+struct PropagationStats {
+  int gaps = 0;               // sample spacings longer than max_sample_gap_s
+  double extrapolated_s = 0;  // time propagated beyond the last sample
+};
+
+// Propagates x and P from t_from to t_to. `samples` must hold the last sample at or
+// before t_from and may end before t_to (then the last sample is held). Over gaps the
+// process noise grows with the gap, so the filter trusts the LiDAR more. Appends the
+// motion to `motion` when given.
+PropagationStats propagate(NavState& x, StateMatrix& P, int64_t t_from, int64_t t_to,
+                           const std::vector<ImuSample>& samples, const ImuNoiseConfig& noise,
+                           MotionProfile* motion);
+
+}  // namespace liloc

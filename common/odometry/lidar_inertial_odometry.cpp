@@ -1,0 +1,457 @@
+#include "odometry/lidar_inertial_odometry.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "math/so3.hpp"
+#include "odometry/scan_deskewer.hpp"
+#include "pointcloud/voxel_grid.hpp"
+#include "pointcloud/voxel_index_table.hpp"
+
+namespace liloc {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
+
+int64_t to_us(double s) { return static_cast<int64_t>(std::llround(s * 1e6)); }
+
+// Registration orders the pose tangent (dp, dtheta), the state (dtheta, dp): swapping
+// the 3x3 blocks converts a 6x6 matrix either way.
+Matrix6d swap_pose_blocks(const Matrix6d& m) {
+  Matrix6d out;
+  out << m.bottomRightCorner<3, 3>(), m.bottomLeftCorner<3, 3>(), m.topRightCorner<3, 3>(),
+      m.topLeftCorner<3, 3>();
+  return out;
+}
+
+// One point per voxel (the first, with its own time) for registration, then at most
+// max_points of them, evenly strided through the sweep.
+std::vector<LidarPoint> registration_points(const std::vector<LidarPoint>& points, float voxel_m,
+                                            int max_points) {
+  VoxelIndexTable seen(points.size() / 4 + 1);
+  std::vector<LidarPoint> sparse;
+  sparse.reserve(points.size() / 4);
+  for (const LidarPoint& p : points) {
+    if (seen.insert(voxel_key(voxel_index(p.position_m, voxel_m))).second) {
+      sparse.push_back(p);
+    }
+  }
+  if (static_cast<int>(sparse.size()) <= max_points) {
+    return sparse;
+  }
+  std::vector<LidarPoint> out;
+  out.reserve(static_cast<size_t>(max_points));
+  const double stride = static_cast<double>(sparse.size()) / max_points;
+  for (int i = 0; i < max_points; ++i) {
+    out.push_back(sparse[static_cast<size_t>(i * stride)]);
+  }
+  return out;
+}
+}  // namespace
+
+void OdometryConfig::validate() const {
+  imu.validate();
+  map.validate();
+  registration.validate();
+  if (min_range_m < 0 || max_range_m <= min_range_m) {
+    throw std::invalid_argument("need 0 <= min_range_m < max_range_m");
+  }
+  if (registration_voxel_m <= 0 || keyframe_voxel_m <= 0 || min_points < 1 ||
+      max_registration_points < 6) {
+    throw std::invalid_argument("voxel sizes must be positive and min_points at least 1");
+  }
+  if (keyframe_translation_m <= 0 || keyframe_rotation_rad <= 0) {
+    throw std::invalid_argument("keyframe thresholds must be positive");
+  }
+  if (init_window_s <= 0 || imu_wait_s < 0 || history_s <= 0) {
+    throw std::invalid_argument("init_window_s and history_s must be positive");
+  }
+  if (correction_blend <= 0 || correction_blend > 1) {
+    throw std::invalid_argument("correction_blend must be in (0, 1]");
+  }
+}
+
+Eigen::Isometry3d OdometryConfig::T_body_lidar() const {
+  return se3::make(so3::from_rpy(lidar_rpy_deg * M_PI / 180.0), lidar_translation_m);
+}
+
+LidarInertialOdometry::LidarInertialOdometry(const OdometryConfig& config)
+    : config_(config), T_body_lidar_(config.T_body_lidar()), map_(config.map) {
+  config_.validate();
+}
+
+const OdometryCounters& LidarInertialOdometry::counters() const {
+  const ImuBuffer::Counters& imu = imu_.counters();
+  counters_.imu_rejected = imu.non_finite + imu.duplicate + imu.out_of_order;
+  return counters_;
+}
+
+void LidarInertialOdometry::add_imu(const ImuSample& sample) {
+  if (config_.use_imu) {
+    imu_.add(sample);
+  }
+}
+
+void LidarInertialOdometry::add_scan(LidarScan scan) {
+  ++counters_.scans_received;
+  const int64_t start = scan.utime_us - to_us(config_.lidar_time_offset_s);
+  const int64_t previous_end = scans_.empty()
+                                   ? last_scan_end_utime_
+                                   : scans_.back().utime_us - to_us(config_.lidar_time_offset_s) +
+                                         to_us(scans_.back().scan_period_s);
+  // A sweep may start up to 1 ms before the previous one's nominal end (clock jitter).
+  if (previous_end != 0 && start < previous_end - 1000) {
+    ++counters_.scans_out_of_order;
+    return;
+  }
+  scans_.push_back(std::move(scan));
+}
+
+std::vector<OdometryEstimate> LidarInertialOdometry::process() { return run(false); }
+
+std::vector<OdometryEstimate> LidarInertialOdometry::flush() { return run(true); }
+
+std::vector<OdometryEstimate> LidarInertialOdometry::run(bool force) {
+  std::vector<OdometryEstimate> out;
+  const int64_t offset_us = to_us(config_.lidar_time_offset_s);
+  while (!scans_.empty()) {
+    const LidarScan& scan = scans_.front();
+    const int64_t start = scan.utime_us - offset_us;
+    const int64_t end = start + to_us(scan.scan_period_s);
+    const int64_t newest_end =
+        scans_.back().utime_us - offset_us + to_us(scans_.back().scan_period_s);
+    const bool waited_enough = force || newest_end - end >= to_us(config_.imu_wait_s);
+    if (config_.use_imu) {
+      if (!initialized_) {
+        if (imu_.empty() || imu_.last_utime() < start) {
+          if (!waited_enough) {
+            break;
+          }
+          ++counters_.scans_before_init;
+          scans_.pop_front();
+          continue;
+        }
+        if (!initialize(start)) {
+          ++counters_.scans_before_init;
+          scans_.pop_front();
+          continue;
+        }
+      } else if (imu_.last_utime() < end) {
+        if (!waited_enough) {
+          break;
+        }
+        ++counters_.scans_without_imu;
+      }
+    } else if (!initialized_) {
+      initialized_ = true;
+      state_utime_ = start;
+      P_.setZero();
+    }
+    out.push_back(process_scan(scan, start, end));
+    last_scan_end_utime_ = end;
+    scans_.pop_front();
+  }
+  return out;
+}
+
+bool LidarInertialOdometry::initialize(int64_t start_utime) {
+  const int64_t window_start = start_utime - to_us(config_.init_window_s);
+  if (imu_.first_utime() > window_start) {
+    return false;  // the IMU started too late to see gravity before this sweep
+  }
+  const std::vector<ImuSample> window = imu_.between(window_start, start_utime);
+  Eigen::Vector3d mean_acc = Eigen::Vector3d::Zero(), mean_gyro = Eigen::Vector3d::Zero();
+  for (const ImuSample& s : window) {
+    mean_acc += s.accel_mps2;
+    mean_gyro += s.gyro_rps;
+  }
+  const double n = static_cast<double>(window.size());
+  mean_acc /= n;
+  mean_gyro /= n;
+  double var_acc = 0.0, var_gyro = 0.0;
+  for (const ImuSample& s : window) {
+    var_acc += (s.accel_mps2 - mean_acc).squaredNorm() / n;
+    var_gyro += (s.gyro_rps - mean_gyro).squaredNorm() / n;
+  }
+  const bool standing = std::sqrt(var_acc) < config_.stationary_accel_std_mps2 &&
+                        std::sqrt(var_gyro) < config_.stationary_gyro_std_rps;
+  // Level the body: the mean specific force points up. Yaw stays 0 (it defines odom).
+  x_ = NavState{};
+  x_.R = Eigen::Quaterniond::FromTwoVectors(mean_acc, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  x_.g = Eigen::Vector3d(0, 0, -config_.imu.gravity_mps2);
+  x_.bg = standing ? mean_gyro : Eigen::Vector3d::Zero();
+  StateVector sigma;
+  sigma.segment<3>(kRot).setConstant(3e-3);
+  sigma.segment<3>(kPos).setConstant(1e-3);
+  sigma.segment<3>(kVel).setConstant(standing ? 0.01 : 2.0);
+  sigma.segment<3>(kBg).setConstant(standing ? 2e-3 : 1e-2);
+  sigma.segment<3>(kBa).setConstant(0.1);
+  sigma.segment<2>(kGrav).setConstant(0.01);
+  P_ = sigma.cwiseAbs2().asDiagonal();
+  state_utime_ = start_utime;
+  initialized_ = true;
+  return true;
+}
+
+Eigen::Isometry3d LidarInertialOdometry::T_local_body() const { return se3::make(x_.R, x_.p); }
+
+void LidarInertialOdometry::predict(int64_t end_utime, MotionProfile& motion) {
+  if (config_.use_imu) {
+    const PropagationStats stats =
+        propagate(x_, P_, state_utime_, end_utime, imu_.between(state_utime_, end_utime),
+                  config_.imu, &motion);
+    counters_.imu_gaps += stats.gaps;
+    last_omega_ = motion.samples().back().omega_body;
+  } else {
+    // Constant velocity in the body frame.
+    const double dt = (end_utime - state_utime_) * 1e-6;
+    const Eigen::Vector3d omega = twist_.tail<3>();
+    const Eigen::Vector3d v_local = x_.R * twist_.head<3>();
+    motion.add({state_utime_, x_.R, x_.p, v_local, omega, Eigen::Vector3d::Zero()});
+    x_.p += v_local * dt;
+    x_.R = so3::normalize(x_.R * so3::exp(omega * dt));
+    x_.v = x_.R * twist_.head<3>();
+    motion.add({end_utime, x_.R, x_.p, x_.v, omega, Eigen::Vector3d::Zero()});
+    P_.block<3, 3>(kRot, kRot).diagonal().array() +=
+        std::pow(config_.motion_rotation_sigma_rps * dt, 2);
+    P_.block<3, 3>(kPos, kPos).diagonal().array() +=
+        std::pow(config_.motion_translation_sigma_mps * dt, 2);
+    last_omega_ = omega;
+  }
+  state_utime_ = end_utime;
+}
+
+void LidarInertialOdometry::update(const RegistrationResult& result) {
+  // The registration solved for the pose with the filter's pose marginal as prior. The
+  // other states follow through their correlation with the pose, and the covariance
+  // takes the LiDAR information: the iterated-EKF update, done on the pose block.
+  const Eigen::Isometry3d T_pred = T_local_body();
+  const Vector6d d_reg = pose_minus(result.T_map_body, T_pred);
+  Vector6d d_pose;
+  d_pose << d_reg.tail<3>(), d_reg.head<3>();
+  const Matrix6d P_pp = P_.topLeftCorner<6, 6>();
+  const Matrix6d P_pp_inv = P_pp.inverse();
+  const Matrix6d posterior = (P_pp_inv + swap_pose_blocks(result.lidar_information)).inverse();
+  if (config_.use_imu) {
+    const Eigen::Matrix<double, kStateDim, 6> A = P_.leftCols<6>() * P_pp_inv;
+    x_ = boxplus(x_, A * d_pose);
+    P_ -= A * (P_pp - posterior) * A.transpose();
+    P_ = 0.5 * (P_ + P_.transpose());
+  } else {
+    x_.R = result.T_map_body.linear();
+    x_.p = result.T_map_body.translation();
+    P_.topLeftCorner<6, 6>() = posterior;
+  }
+}
+
+Matrix6d LidarInertialOdometry::pose_covariance_right() const {
+  // (dtheta, dp_local) -> (rho_body, theta): rho = R^T dp.
+  Matrix6d J = Matrix6d::Zero();
+  J.block<3, 3>(0, 3) = x_.R.transpose();
+  J.block<3, 3>(3, 0) = Eigen::Matrix3d::Identity();
+  return J * P_.topLeftCorner<6, 6>() * J.transpose();
+}
+
+OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int64_t start_utime,
+                                                     int64_t end_utime) {
+  const Clock::time_point t_start = Clock::now();
+  OdometryEstimate est;
+  est.utime_us = end_utime;
+
+  // Preprocess: the vehicle itself and far returns out, one point per voxel.
+  Clock::time_point t = Clock::now();
+  std::vector<LidarPoint> valid;
+  valid.reserve(scan.points.size());
+  const float min_sq = static_cast<float>(config_.min_range_m * config_.min_range_m);
+  const float max_sq = static_cast<float>(config_.max_range_m * config_.max_range_m);
+  for (const LidarPoint& p : scan.points) {
+    const float r2 = p.position_m.squaredNorm();
+    if (r2 >= min_sq && r2 <= max_sq) {
+      valid.push_back(p);
+    }
+  }
+  const std::vector<LidarPoint> sparse = registration_points(
+      valid, static_cast<float>(config_.registration_voxel_m), config_.max_registration_points);
+  est.timings.preprocess_ms = ms_since(t);
+
+  // Predict to the sweep's end and deskew.
+  t = Clock::now();
+  const Eigen::Isometry3d T_prev = T_local_body();
+  MotionProfile motion;
+  predict(end_utime, motion);
+  const std::vector<Eigen::Vector3f> points_body =
+      deskew(sparse, start_utime, end_utime, motion, T_body_lidar_);
+  est.timings.propagate_ms = ms_since(t);
+
+  const bool enough = static_cast<int>(valid.size()) >= config_.min_points;
+  if (!enough) {
+    ++counters_.scans_too_small;
+  } else if (!map_.empty()) {
+    t = Clock::now();
+    PosePrior prior;
+    prior.T_map_body = T_local_body();
+    const Matrix6d P_pp = P_.topLeftCorner<6, 6>();
+    prior.information = swap_pose_blocks(P_pp).inverse();
+    const RegistrationResult result =
+        register_point_to_plane(points_body, map_, prior.T_map_body, prior, config_.registration,
+                                T_body_lidar_.translation());
+    update(result);
+    if (!config_.use_imu) {
+      const double dt = std::max((end_utime - start_utime) * 1e-6, 1e-3);
+      twist_.head<3>() = T_prev.linear().transpose() * (x_.p - T_prev.translation()) / dt;
+      twist_.tail<3>() = so3::log(T_prev.linear().transpose() * x_.R) / dt;
+      x_.v = x_.R * twist_.head<3>();
+    }
+    est.registered = true;
+    est.fitness_m = result.rms_residual_m;
+    est.correspondences = result.correspondences;
+    est.degenerate = result.degenerate;
+    est.translation_eigen_ratio = result.translation_eigen_ratio;
+    est.rotation_eigen_ratio = result.rotation_eigen_ratio;
+    counters_.degenerate_scans += result.degenerate ? 1 : 0;
+    est.timings.register_ms = ms_since(t);
+  } else {
+    est.registered = true;  // the first sweep defines the map
+  }
+
+  if (enough) {
+    t = Clock::now();
+    const Eigen::Isometry3d moved = last_insert_T_local_body_.inverse() * T_local_body();
+    if (!have_map_insert_ || moved.translation().norm() >= config_.map_insert_translation_m ||
+        se3::rotation_angle(moved) >= config_.map_insert_rotation_rad) {
+      const Eigen::Isometry3f T = T_local_body().cast<float>();
+      std::vector<Eigen::Vector3f> world;
+      world.reserve(points_body.size());
+      for (const Eigen::Vector3f& p : points_body) {
+        world.push_back(T * p);
+      }
+      map_.insert(world);
+      have_map_insert_ = true;
+      last_insert_T_local_body_ = T_local_body();
+    }
+    if (++sweeps_since_cleanup_ >= 10) {
+      map_.remove_far(x_.p);
+      sweeps_since_cleanup_ = 0;
+    }
+    est.timings.map_ms = ms_since(t);
+
+    const Eigen::Isometry3d delta = last_keyframe_T_local_body_.inverse() * T_local_body();
+    if (!have_keyframe_ || delta.translation().norm() >= config_.keyframe_translation_m ||
+        se3::rotation_angle(delta) >= config_.keyframe_rotation_rad) {
+      t = Clock::now();
+      const std::vector<Eigen::Vector3f> full =
+          deskew(valid, start_utime, end_utime, motion, T_body_lidar_);
+      PointCloud cloud;
+      cloud.reserve(full.size());
+      for (size_t i = 0; i < full.size(); ++i) {
+        cloud.push_back(full[i], valid[i].intensity);
+      }
+      Keyframe kf;
+      kf.id = next_keyframe_id_++;
+      kf.cloud_body = voxel_downsample(cloud, static_cast<float>(config_.keyframe_voxel_m));
+      est.keyframe = std::move(kf);
+      have_keyframe_ = true;
+      last_keyframe_T_local_body_ = T_local_body();
+      ++counters_.keyframes;
+      est.timings.keyframe_ms = ms_since(t);
+    }
+  }
+
+  history_.push_back({end_utime, T_local_body()});
+  while (!history_.empty() && history_.front().utime_us < end_utime - to_us(config_.history_s)) {
+    history_.pop_front();
+  }
+  blend_correction();
+  imu_.drop_before(end_utime - 1000000);
+
+  est.T_odom_body = T_odom_local_ * T_local_body();
+  est.velocity_odom = T_odom_local_.linear() * x_.v;
+  est.angular_velocity_body = last_omega_;
+  est.gyro_bias = x_.bg;
+  est.accel_bias = x_.ba;
+  est.covariance = pose_covariance_right();
+  if (est.keyframe) {
+    Keyframe& kf = *est.keyframe;
+    kf.utime_us = end_utime;
+    kf.T_odom_body = est.T_odom_body;
+    kf.velocity_odom = est.velocity_odom;
+    kf.gyro_bias = est.gyro_bias;
+    kf.accel_bias = est.accel_bias;
+    kf.covariance = est.covariance;
+    kf.fitness_m = est.fitness_m;
+    kf.degenerate = est.degenerate;
+  }
+  ++counters_.scans_processed;
+  est.timings.total_ms = ms_since(t_start);
+  return est;
+}
+
+std::optional<Eigen::Isometry3d> LidarInertialOdometry::pose_in_history(int64_t utime_us) const {
+  if (history_.empty() || utime_us < history_.front().utime_us ||
+      utime_us > history_.back().utime_us) {
+    return std::nullopt;
+  }
+  const auto after =
+      std::lower_bound(history_.begin(), history_.end(), utime_us,
+                       [](const HistoryEntry& e, int64_t t) { return e.utime_us < t; });
+  if (after->utime_us == utime_us || after == history_.begin()) {
+    return after->T_local_body;
+  }
+  const auto before = after - 1;
+  return se3::interpolate(before->T_local_body, after->T_local_body,
+                          static_cast<double>(utime_us - before->utime_us) /
+                              static_cast<double>(after->utime_us - before->utime_us));
+}
+
+void LidarInertialOdometry::add_correction(const OdometryCorrection& c) {
+  const std::optional<Eigen::Isometry3d> T_local_body_then = pose_in_history(c.utime_us);
+  const bool finite = (!c.T_odom_body || c.T_odom_body->matrix().allFinite()) &&
+                      (!c.velocity_odom || c.velocity_odom->allFinite()) &&
+                      (!c.gyro_bias || c.gyro_bias->allFinite()) &&
+                      (!c.accel_bias || c.accel_bias->allFinite());
+  if (!initialized_ || !T_local_body_then || !finite) {
+    ++counters_.corrections_rejected;
+    return;
+  }
+  if (c.T_odom_body) {
+    T_odom_local_target_ = *c.T_odom_body * T_local_body_then->inverse();
+  }
+  // Velocity is only meaningful for the present: from a recent correction only.
+  if (c.velocity_odom && state_utime_ - c.utime_us < 500000) {
+    x_.v = T_odom_local_.linear().transpose() * *c.velocity_odom;
+  }
+  if (c.gyro_bias) {
+    x_.bg = *c.gyro_bias;
+  }
+  if (c.accel_bias) {
+    x_.ba = *c.accel_bias;
+  }
+  ++counters_.corrections_applied;
+}
+
+void LidarInertialOdometry::blend_correction() {
+  if (!T_odom_local_target_) {
+    return;
+  }
+  // Step limits apply to the body's output pose, not to the frame: turning the frame
+  // about its origin 100 m away would move the body by 100 m times the angle.
+  const Eigen::Isometry3d T_local_body_now = T_local_body();
+  const Eigen::Isometry3d body = T_odom_local_ * T_local_body_now;
+  const Eigen::Isometry3d body_target = *T_odom_local_target_ * T_local_body_now;
+  const Vector6d remaining = se3::log(body.inverse() * body_target);
+  if (remaining.head<3>().norm() < 1e-4 && remaining.tail<3>().norm() < 1e-6) {
+    T_odom_local_ = *T_odom_local_target_;
+    T_odom_local_target_.reset();
+    return;
+  }
+  Vector6d step = config_.correction_blend * remaining;
+  const double scale = std::max({1.0, step.head<3>().norm() / config_.correction_max_step_m,
+                                 step.tail<3>().norm() / config_.correction_max_step_rad});
+  T_odom_local_ = body * se3::exp(step / scale) * T_local_body_now.inverse();
+}
+
+}  // namespace liloc

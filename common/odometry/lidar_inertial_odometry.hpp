@@ -1,0 +1,170 @@
+#pragma once
+// LiDAR-inertial odometry, the ILM front end (paper Section IV-C.2): IMU propagation and
+// per-point deskew, point-to-plane registration of each sweep against an incremental
+// voxel map (Eq. 6), fused with the IMU in an iterated error-state Kalman filter that
+// also estimates the biases and the gravity direction; keyframes every 1 m / 0.2 rad.
+// Without an IMU it runs LiDAR-only with a constant-velocity model.
+//
+// Data in, estimates out, no I/O: add_imu() / add_scan() as data arrives, then process()
+// returns an estimate for each sweep it could finish. Sweeps wait for the IMU to cover
+// them, up to imu_wait_s of newer data.
+
+#include <deque>
+#include <optional>
+#include <vector>
+
+#include "imu/imu_buffer.hpp"
+#include "odometry/imu_propagation.hpp"
+#include "odometry/motion_profile.hpp"
+#include "odometry/navigation_state.hpp"
+#include "odometry/odometry_types.hpp"
+#include "registration/point_to_plane_registration.hpp"
+#include "voxel_map/voxel_hash_map.hpp"
+
+namespace liloc {
+
+struct OdometryConfig {
+  bool use_imu = true;
+  // T_body_lidar and the LiDAR clock's offset (LiDAR time minus IMU time).
+  Eigen::Vector3d lidar_translation_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d lidar_rpy_deg = Eigen::Vector3d::Zero();
+  double lidar_time_offset_s = 0.0;
+  // Points nearer (the vehicle itself) or farther than this are not used.
+  double min_range_m = 1.5;
+  double max_range_m = 100.0;
+  double registration_voxel_m = 0.5;
+  // At most this many points (evenly strided) go to registration: beyond a few thousand
+  // well-spread points, more only cost time.
+  int max_registration_points = 3000;
+  // A sweep is added to the map only after the body moved this much since the last one
+  // added: a standing sensor would otherwise pile its own range noise into the map as
+  // sheets along its rays, which then hold the registration at zero motion.
+  double map_insert_translation_m = 0.1;
+  double map_insert_rotation_rad = 0.02;
+  int min_points = 100;
+  // Keyframes (paper/LIO-SAM defaults).
+  double keyframe_translation_m = 1.0;
+  double keyframe_rotation_rad = 0.2;
+  double keyframe_voxel_m = 0.3;
+  // IMU.
+  ImuNoiseConfig imu;
+  double init_window_s = 0.5;              // IMU before the first sweep, for gravity
+  double stationary_accel_std_mps2 = 0.3;  // below: a standing start
+  double stationary_gyro_std_rps = 0.03;
+  double imu_wait_s = 0.2;  // then a sweep goes ahead without full IMU coverage
+  // LiDAR-only constant-velocity model: expected change of velocity per second.
+  double motion_translation_sigma_mps = 2.0;
+  double motion_rotation_sigma_rps = 0.5;
+  VoxelMapConfig map;
+  RegistrationConfig registration;
+  // Pose corrections are blended in: this fraction of what remains per sweep, at most
+  // the step limits, so that the output never jumps.
+  double correction_blend = 0.1;
+  double correction_max_step_m = 0.02;
+  double correction_max_step_rad = 0.002;
+  double history_s = 120.0;  // how far back a correction may refer
+
+  template <class V>
+  void visit_fields(V& v) {
+    v("use_imu", use_imu);
+    v("lidar_translation_m", lidar_translation_m);
+    v("lidar_rpy_deg", lidar_rpy_deg);
+    v("lidar_time_offset_s", lidar_time_offset_s);
+    v("min_range_m", min_range_m);
+    v("max_range_m", max_range_m);
+    v("registration_voxel_m", registration_voxel_m);
+    v("max_registration_points", max_registration_points);
+    v("map_insert_translation_m", map_insert_translation_m);
+    v("map_insert_rotation_rad", map_insert_rotation_rad);
+    v("min_points", min_points);
+    v("keyframe_translation_m", keyframe_translation_m);
+    v("keyframe_rotation_rad", keyframe_rotation_rad);
+    v("keyframe_voxel_m", keyframe_voxel_m);
+    v("imu", imu);
+    v("init_window_s", init_window_s);
+    v("stationary_accel_std_mps2", stationary_accel_std_mps2);
+    v("stationary_gyro_std_rps", stationary_gyro_std_rps);
+    v("imu_wait_s", imu_wait_s);
+    v("motion_translation_sigma_mps", motion_translation_sigma_mps);
+    v("motion_rotation_sigma_rps", motion_rotation_sigma_rps);
+    v("map", map);
+    v("registration", registration);
+    v("correction_blend", correction_blend);
+    v("correction_max_step_m", correction_max_step_m);
+    v("correction_max_step_rad", correction_max_step_rad);
+    v("history_s", history_s);
+  }
+  void validate() const;
+  Eigen::Isometry3d T_body_lidar() const;
+};
+
+class LidarInertialOdometry {
+ public:
+  explicit LidarInertialOdometry(const OdometryConfig& config);
+
+  // Refused samples (non-finite, repeated, out of order) are counted.
+  void add_imu(const ImuSample& sample);
+  // Sweeps starting before the previous one ended, or repeated, are counted and dropped.
+  void add_scan(LidarScan scan);
+  // Biases and velocity apply at once; a pose correction is blended in over the
+  // following sweeps. Corrections for times outside the history are counted, ignored.
+  void add_correction(const OdometryCorrection& correction);
+
+  // Estimates for every sweep that can be processed now, in order.
+  std::vector<OdometryEstimate> process();
+  // Processes every waiting sweep, whether or not the IMU covers it (end of data).
+  std::vector<OdometryEstimate> flush();
+
+  bool initialized() const { return initialized_; }
+  const OdometryCounters& counters() const;
+  const NavState& state() const { return x_; }
+  const StateMatrix& covariance() const { return P_; }
+  size_t map_points() const { return map_.num_points(); }
+
+ private:
+  struct HistoryEntry {
+    int64_t utime_us;
+    Eigen::Isometry3d T_local_body;
+  };
+
+  std::vector<OdometryEstimate> run(bool force);
+  // Sets the initial state from the IMU before `start_utime`; false if there is too
+  // little IMU yet.
+  bool initialize(int64_t start_utime);
+  OdometryEstimate process_scan(const LidarScan& scan, int64_t start_utime, int64_t end_utime);
+  void predict(int64_t end_utime, MotionProfile& motion);
+  void update(const RegistrationResult& result);
+  void blend_correction();
+  std::optional<Eigen::Isometry3d> pose_in_history(int64_t utime_us) const;
+  Eigen::Isometry3d T_local_body() const;
+  Matrix6d pose_covariance_right() const;
+
+  OdometryConfig config_;
+  Eigen::Isometry3d T_body_lidar_;
+  ImuBuffer imu_;
+  std::deque<LidarScan> scans_;
+  VoxelHashMap map_;
+  mutable OdometryCounters counters_;
+
+  bool initialized_ = false;
+  int64_t state_utime_ = 0;  // time of x_ (end of the last sweep)
+  int64_t last_scan_end_utime_ = 0;
+  NavState x_;
+  StateMatrix P_ = StateMatrix::Identity();
+  // LiDAR-only: the twist of the last sweep-to-sweep motion (body frame).
+  Vector6d twist_ = Vector6d::Zero();
+  Eigen::Vector3d last_omega_ = Eigen::Vector3d::Zero();
+
+  Eigen::Isometry3d T_odom_local_ = Eigen::Isometry3d::Identity();
+  std::optional<Eigen::Isometry3d> T_odom_local_target_;
+  std::deque<HistoryEntry> history_;
+
+  bool have_map_insert_ = false;
+  Eigen::Isometry3d last_insert_T_local_body_ = Eigen::Isometry3d::Identity();
+  bool have_keyframe_ = false;
+  Eigen::Isometry3d last_keyframe_T_local_body_ = Eigen::Isometry3d::Identity();
+  int64_t next_keyframe_id_ = 0;
+  int64_t sweeps_since_cleanup_ = 0;
+};
+
+}  // namespace liloc

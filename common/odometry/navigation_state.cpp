@@ -1,0 +1,34 @@
+#include "odometry/navigation_state.hpp"
+
+#include "math/so3.hpp"
+
+namespace liloc {
+
+Eigen::Matrix<double, 3, 2> gravity_tangent_basis(const Eigen::Vector3d& g) {
+  const Eigen::Vector3d u = g.normalized();
+  // Any vector not parallel to u seeds the basis.
+  const Eigen::Vector3d seed =
+      std::abs(u.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  Eigen::Matrix<double, 3, 2> B;
+  B.col(0) = u.cross(seed).normalized();
+  B.col(1) = u.cross(B.col(0));
+  return B;
+}
+
+Eigen::Matrix<double, 3, 2> gravity_jacobian(const Eigen::Vector3d& g) {
+  return -g.norm() * so3::hat(g.normalized()) * gravity_tangent_basis(g);
+}
+
+NavState boxplus(const NavState& x, const StateVector& dx) {
+  NavState y;
+  y.R = so3::normalize(x.R * so3::exp(dx.segment<3>(kRot)));
+  y.p = x.p + dx.segment<3>(kPos);
+  y.v = x.v + dx.segment<3>(kVel);
+  y.bg = x.bg + dx.segment<3>(kBg);
+  y.ba = x.ba + dx.segment<3>(kBa);
+  const Eigen::Vector3d tangent = gravity_tangent_basis(x.g) * dx.segment<2>(kGrav);
+  y.g = x.g.norm() * (so3::exp(tangent) * x.g.normalized());
+  return y;
+}
+
+}  // namespace liloc

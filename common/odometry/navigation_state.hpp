@@ -1,0 +1,40 @@
+#pragma once
+// The odometry's state and its error-state parametrization (an iterated error-state
+// Kalman filter, as in FAST-LIO2, with gravity on S2):
+//   x = (R, p, v, bg, ba, g),  R = R_hat Exp(dtheta) (body frame),  p, v additive (local
+//   map frame), biases additive, g = |g| Exp(B(u) dg) u with dg in the 2D tangent of S2.
+// Estimating the gravity direction lets a turn-on accelerometer bias be told apart from
+// the initial tilt instead of being frozen into the map.
+
+#include <Eigen/Core>
+
+namespace liloc {
+
+constexpr int kStateDim = 17;
+constexpr int kRot = 0;    // dtheta, body frame
+constexpr int kPos = 3;    // dp, local map frame
+constexpr int kVel = 6;    // dv, local map frame
+constexpr int kBg = 9;     // gyro bias
+constexpr int kBa = 12;    // accelerometer bias
+constexpr int kGrav = 15;  // gravity direction, 2D
+using StateVector = Eigen::Matrix<double, kStateDim, 1>;
+using StateMatrix = Eigen::Matrix<double, kStateDim, kStateDim>;
+
+struct NavState {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();   // R_local_body
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();       // m, local map frame
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();       // m/s, local map frame
+  Eigen::Vector3d bg = Eigen::Vector3d::Zero();      // rad/s
+  Eigen::Vector3d ba = Eigen::Vector3d::Zero();      // m/s^2
+  Eigen::Vector3d g = Eigen::Vector3d(0, 0, -9.81);  // m/s^2, local map frame
+};
+
+// Orthonormal basis (3x2) of the plane tangent to S2 at direction g.
+Eigen::Matrix<double, 3, 2> gravity_tangent_basis(const Eigen::Vector3d& g);
+
+// d g / d dg at dg = 0: -|g| [u]x B(u).
+Eigen::Matrix<double, 3, 2> gravity_jacobian(const Eigen::Vector3d& g);
+
+NavState boxplus(const NavState& x, const StateVector& dx);
+
+}  // namespace liloc

@@ -1,0 +1,81 @@
+#pragma once
+// What the odometry produces and accepts, in core types (the process converts to and
+// from messages).
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <optional>
+
+#include "math/se3.hpp"
+#include "pointcloud/point_cloud.hpp"
+
+namespace liloc {
+
+// Time spent per stage on one sweep, milliseconds.
+struct OdometryTimings {
+  double preprocess_ms = 0.0;  // range filter, downsampling
+  double propagate_ms = 0.0;   // IMU propagation or motion model, deskew
+  double register_ms = 0.0;    // scan-to-map registration and state update
+  double map_ms = 0.0;         // local map update
+  double keyframe_ms = 0.0;    // full deskew and downsampling of a keyframe cloud
+  double total_ms = 0.0;
+};
+
+struct Keyframe {
+  int64_t id = 0;
+  int64_t utime_us = 0;
+  Eigen::Isometry3d T_odom_body = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d velocity_odom = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
+  Matrix6d covariance = Matrix6d::Identity();  // right perturbation (translation, rotation)
+  double fitness_m = 0.0;
+  bool degenerate = false;
+  PointCloud cloud_body;  // deskewed to utime_us, downsampled
+};
+
+// The odometry's estimate at the end of one sweep.
+struct OdometryEstimate {
+  int64_t utime_us = 0;
+  Eigen::Isometry3d T_odom_body = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d velocity_odom = Eigen::Vector3d::Zero();
+  Eigen::Vector3d angular_velocity_body = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
+  // Right perturbation T = T_est Exp(d), d = (translation m, rotation rad), body frame.
+  Matrix6d covariance = Matrix6d::Identity();
+  bool registered = false;  // false: too few points, the pose is the prediction
+  double fitness_m = 0.0;   // RMS point-to-plane residual
+  int correspondences = 0;
+  bool degenerate = false;
+  double translation_eigen_ratio = 0.0;
+  double rotation_eigen_ratio = 0.0;
+  OdometryTimings timings;
+  std::optional<Keyframe> keyframe;
+};
+
+// A correction from the optimizer: the state it believes the odometry had at utime_us.
+struct OdometryCorrection {
+  int64_t utime_us = 0;
+  std::optional<Eigen::Isometry3d> T_odom_body;
+  std::optional<Eigen::Vector3d> velocity_odom;
+  std::optional<Eigen::Vector3d> gyro_bias;
+  std::optional<Eigen::Vector3d> accel_bias;
+};
+
+struct OdometryCounters {
+  int64_t scans_received = 0;
+  int64_t scans_processed = 0;
+  int64_t scans_out_of_order = 0;  // start before the previous sweep's end, or repeated
+  int64_t scans_too_small = 0;     // fewer valid points than min_points: not registered
+  int64_t scans_before_init = 0;   // dropped while waiting for IMU initialization
+  int64_t scans_without_imu = 0;   // processed past the last IMU sample (IMU late or gone)
+  int64_t imu_gaps = 0;            // IMU silences longer than max_sample_gap_s
+  int64_t degenerate_scans = 0;
+  int64_t keyframes = 0;
+  int64_t corrections_applied = 0;
+  int64_t corrections_rejected = 0;  // time outside the kept history, or non-finite
+  int64_t imu_rejected = 0;          // non-finite, repeated or out-of-order samples
+};
+
+}  // namespace liloc

@@ -1,0 +1,365 @@
+#include <gtest/gtest.h>
+
+#include <variant>
+
+#include "eval/trajectory_metrics.hpp"
+#include "math/se3.hpp"
+#include "math/so3.hpp"
+#include "odometry/imu_propagation.hpp"
+#include "odometry/lidar_inertial_odometry.hpp"
+#include "odometry/scan_deskewer.hpp"
+#include "sim/imu_simulator.hpp"
+#include "sim/lidar_model.hpp"
+#include "sim/session_planner.hpp"
+#include "sim/session_simulator.hpp"
+#include "sim/simulation_config.hpp"
+#include "sim/world_generator.hpp"
+
+namespace liloc {
+namespace {
+
+// A body turning at 1 rad/s while driving 10 m/s: each point is measured from where the
+// body was at its own time; deskewing with the true motion must place it exactly.
+TEST(Deskew, UndoesAKnownMotionOnAKnownCloud) {
+  const Eigen::Vector3d omega(0.0, 0.0, 1.0);
+  const Eigen::Vector3d v_body(10.0, 0.0, 0.0);
+  const auto T_local_body = [&](double t) {
+    // Constant twist: exact with one motion sample (constant rates, zero acceleration in
+    // the body frame means a circular arc; use the closed form of se3::exp).
+    Vector6d xi;
+    xi << v_body * t, omega * t;
+    return se3::exp(xi);
+  };
+  const Eigen::Isometry3d T_body_lidar =
+      se3::make(so3::exp(Eigen::Vector3d(0.0, 0.0, 0.3)), Eigen::Vector3d(0.2, 0.0, 0.5));
+  const int64_t start = 1000000, end = 1100000;
+  // The motion profile as the IMU integrator builds it: fine samples.
+  MotionProfile motion;
+  for (int64_t t = start; t <= end; t += 1000) {
+    const double s = (t - start) * 1e-6;
+    const Eigen::Isometry3d T = T_local_body(s);
+    motion.add({t, T.linear(), T.translation(), T.linear() * v_body, omega,
+                T.linear() * omega.cross(v_body)});
+  }
+  std::vector<LidarPoint> points;
+  std::vector<Eigen::Vector3d> world;
+  for (int i = 0; i < 100; ++i) {
+    const double time = 0.001 * i;
+    const Eigen::Vector3d w(20.0 * std::cos(0.06 * i), 20.0 * std::sin(0.06 * i), 1.0 + 0.01 * i);
+    const Eigen::Isometry3d T_local_lidar = T_local_body(time) * T_body_lidar;
+    LidarPoint p;
+    p.position_m = (T_local_lidar.inverse() * w).cast<float>();
+    p.time_offset_s = static_cast<float>(time);
+    points.push_back(p);
+    world.push_back(w);
+  }
+  const std::vector<Eigen::Vector3f> out = deskew(points, start, end, motion, T_body_lidar);
+  const Eigen::Isometry3d T_end_local = T_local_body(0.1).inverse();
+  double worst = 0.0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    worst = std::max(worst, (out[i].cast<double>() - T_end_local * world[i]).norm());
+  }
+  EXPECT_LT(worst, 2e-3);
+  // Without deskewing, the points would be off by up to the 1 m driven in the sweep.
+  MotionProfile still;
+  still.add({start, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+             Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()});
+  const std::vector<Eigen::Vector3f> skewed = deskew(points, start, end, still, T_body_lidar);
+  double skew = 0.0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    skew = std::max(skew, (skewed[i].cast<double>() - T_end_local * world[i]).norm());
+  }
+  EXPECT_GT(skew, 0.5);
+}
+
+// Noise-free IMU samples of a simulated drive, propagated from the true state, follow the
+// true trajectory; the propagated covariance grows.
+TEST(ImuPropagation, FollowsTheTrueTrajectory) {
+  const sim::GeneratedWorld g = sim::generate_world(sim::WorldConfig{});
+  sim::SessionPlanConfig lengths;
+  lengths.a_length_m = 300.0;
+  const sim::SessionPlan plan = sim::plan_session("A", g.world, g.mapped_max_x_m, lengths, 3);
+  const sim::VehicleTrajectory trajectory(g.world, plan.waypoints, sim::MotionConfig{}, 3);
+  sim::ImuConfig clean;
+  clean.accel_noise_density = clean.gyro_noise_density = 0.0;
+  clean.accel_bias_random_walk = clean.gyro_bias_random_walk = 0.0;
+  clean.initial_accel_bias_sigma_mps2 = clean.initial_gyro_bias_sigma_rps = 0.0;
+  sim::ImuSimulator imu(trajectory, clean, 1, 0);
+  std::vector<ImuSample> samples;
+  while (imu.next_time_s() < 20.0) {
+    samples.push_back(imu.next());
+  }
+  const double t0 = 8.0, t1 = 18.0;
+  const sim::VehicleState s0 = trajectory.state(t0);
+  NavState x;
+  x.R = s0.T_world_body.linear();
+  x.p = s0.T_world_body.translation();
+  x.v = s0.velocity_world;
+  x.g = Eigen::Vector3d(0, 0, -clean.gravity_mps2);
+  StateMatrix P = StateMatrix::Identity() * 1e-6;
+  std::vector<ImuSample> window;
+  for (const ImuSample& s : samples) {
+    if (s.utime_us >= 7990000 && s.utime_us <= 18000000) {
+      window.push_back(s);
+    }
+  }
+  MotionProfile motion;
+  const PropagationStats stats =
+      propagate(x, P, 8000000, 18000000, window, ImuNoiseConfig{}, &motion);
+  const Eigen::Isometry3d truth = trajectory.pose(t1);
+  EXPECT_EQ(stats.gaps, 0);
+  EXPECT_LT((x.p - truth.translation()).norm(), 0.05);
+  EXPECT_LT(so3::log(truth.linear().transpose() * x.R).norm(), 1e-3);
+  EXPECT_LT((x.v - trajectory.state(t1).velocity_world).norm(), 0.01);
+  EXPECT_GT(P(kPos, kPos), 1e-6);
+  // The motion profile reproduces the poses in between.
+  EXPECT_LT((motion.pose_at(13000000).translation() - trajectory.pose(13.0).translation()).norm(),
+            0.03);
+}
+
+// A simulated drive, recorded once in memory: every IMU sample and sweep in the order a
+// live robot would deliver them, with its ground truth and the true biases.
+struct Recording {
+  std::vector<std::variant<ImuSample, LidarScan>> events;
+  Trajectory ground_truth;
+  Eigen::Vector3d accel_bias, gyro_bias;
+  sim::SimulationConfig config;
+  double length_m = 0.0;
+};
+
+Recording record(const std::string& world_kind, std::vector<Eigen::Vector2d> waypoints = {}) {
+  Recording r;
+  r.config.world.kind = world_kind;
+  // Larger turn-on biases than the defaults, so that recovering them means something.
+  r.config.imu.initial_accel_bias_sigma_mps2 = 0.1;
+  r.config.imu.initial_gyro_bias_sigma_rps = 0.01;
+  const sim::GeneratedWorld g = sim::generate_world(r.config.world);
+  if (waypoints.empty()) {
+    const std::vector<Eigen::Vector2d>& nodes = g.world.roads().nodes();
+    // Around one block of the campus: 4 corners, about 270 m.
+    waypoints = {nodes[0], nodes[1], nodes[6], nodes[5], nodes[0]};
+  }
+  const sim::VehicleTrajectory trajectory(g.world, waypoints, r.config.motion, 11);
+  const sim::SessionSimulator sim(g.world, trajectory, sim::lidar_spec("vlp16"), r.config.rig.rig(),
+                                  r.config.imu, 11, r.config.start_utime);
+  sim.run([&](const ImuSample& s) { r.events.emplace_back(s); },
+          [&](const LidarScan& s) { r.events.emplace_back(s); }, [](double) {}, 2);
+  r.ground_truth = sim.ground_truth(100.0);
+  r.accel_bias = sim.initial_accel_bias();
+  r.gyro_bias = sim.initial_gyro_bias();
+  r.length_m = trajectory.length_m();
+  return r;
+}
+
+const Recording& campus_drive() {
+  static const Recording r = record("campus");
+  return r;
+}
+
+OdometryConfig config_for(const Recording& r) {
+  OdometryConfig c;
+  c.lidar_translation_m = r.config.rig.lidar_translation_m;
+  c.lidar_rpy_deg = r.config.rig.lidar_rpy_deg;
+  return c;
+}
+
+struct Replayed {
+  std::vector<OdometryEstimate> estimates;
+  Trajectory trajectory() const {
+    std::vector<StampedPose> poses;
+    for (const OdometryEstimate& e : estimates) {
+      poses.push_back({e.utime_us * 1e-6, e.T_odom_body});
+    }
+    return Trajectory(poses);
+  }
+  eval::TrajectoryMetrics metrics(const Recording& r) const {
+    return eval::evaluate_trajectory(r.ground_truth, trajectory(), eval::EvalConfig{});
+  }
+};
+
+// Feeds the events (after `edit`, which may drop or change them) to the odometry.
+template <class Edit>
+Replayed replay(const Recording& r, LidarInertialOdometry& odometry, Edit edit) {
+  Replayed run;
+  for (auto event : r.events) {
+    if (!edit(event)) {
+      continue;
+    }
+    if (auto* s = std::get_if<ImuSample>(&event)) {
+      odometry.add_imu(*s);
+    } else {
+      odometry.add_scan(std::get<LidarScan>(event));
+    }
+    for (OdometryEstimate& e : odometry.process()) {
+      run.estimates.push_back(std::move(e));
+    }
+  }
+  for (OdometryEstimate& e : odometry.flush()) {
+    run.estimates.push_back(std::move(e));
+  }
+  return run;
+}
+
+Replayed replay(const Recording& r, LidarInertialOdometry& odometry) {
+  return replay(r, odometry, [](auto&) { return true; });
+}
+
+TEST(Odometry, TracksASimulatedDriveAndRecoversTheBiases) {
+  const Recording& r = campus_drive();
+  LidarInertialOdometry odometry(config_for(r));
+  const Replayed run = replay(r, odometry);
+  const eval::TrajectoryMetrics m = run.metrics(r);
+  EXPECT_GT(m.path_length_m, 200.0);
+  EXPECT_LT(m.rpe_translation_percent, 1.0);
+  EXPECT_LT(m.ate_position_rmse_m, 0.3);
+  // Turn-on biases, drawn with sigma 0.1 m/s^2 and 0.01 rad/s; their random walk over
+  // the drive is a few 1e-3 m/s^2 and 1e-4 rad/s.
+  const Eigen::Vector3d ba_error = odometry.state().ba - r.accel_bias;
+  const Eigen::Vector3d bg_error = odometry.state().bg - r.gyro_bias;
+  EXPECT_LT(bg_error.norm(), 1e-3)
+      << "true " << r.gyro_bias.transpose() << " estimated " << odometry.state().bg.transpose();
+  EXPECT_LT(bg_error.norm(), 0.2 * r.gyro_bias.norm());
+  EXPECT_LT(ba_error.norm(), 0.03)
+      << "true " << r.accel_bias.transpose() << " estimated " << odometry.state().ba.transpose();
+  EXPECT_LT(ba_error.norm(), 0.3 * r.accel_bias.norm());
+  // Keyframes every metre or 0.2 rad, with clouds.
+  int keyframes = 0;
+  for (const OdometryEstimate& e : run.estimates) {
+    if (e.keyframe) {
+      ++keyframes;
+      EXPECT_GT(e.keyframe->cloud_body.size(), 1000u);
+    }
+  }
+  EXPECT_GT(keyframes, static_cast<int>(0.5 * m.path_length_m / 1.0));
+  EXPECT_LT(keyframes, static_cast<int>(1.5 * m.path_length_m / 1.0) + 20);
+}
+
+TEST(Odometry, LidarOnlyModeAlsoTracks) {
+  const Recording& r = campus_drive();
+  OdometryConfig config = config_for(r);
+  config.use_imu = false;
+  LidarInertialOdometry odometry(config);
+  const eval::TrajectoryMetrics m = replay(r, odometry).metrics(r);
+  EXPECT_LT(m.rpe_translation_percent, 3.0);
+  EXPECT_LT(m.ate_position_rmse_m, 2.0);
+}
+
+// Half a second of IMU lost twice, repeated and reordered samples and sweeps, empty
+// and tiny sweeps: the odometry counts them and keeps tracking.
+TEST(Odometry, SurvivesGapsDisorderAndEmptySweeps) {
+  const Recording& r = campus_drive();
+  LidarInertialOdometry odometry(config_for(r));
+  const int64_t t0 = r.config.start_utime;
+  int64_t last_imu = 0;
+  int sweep = 0;
+  std::optional<ImuSample> held;
+  const Replayed run = replay(r, odometry, [&](std::variant<ImuSample, LidarScan>& e) {
+    if (auto* s = std::get_if<ImuSample>(&e)) {
+      const double t = (s->utime_us - t0) * 1e-6;
+      if ((t > 20.0 && t < 20.5) || (t > 35.0 && t < 35.5)) {
+        return false;  // IMU gaps
+      }
+      if (s->utime_us % 1000000 == 0 && last_imu > 0) {
+        odometry.add_imu(*s);  // a repeated sample
+      }
+      last_imu = s->utime_us;
+      return true;
+    }
+    LidarScan& scan = std::get<LidarScan>(e);
+    ++sweep;
+    if (sweep % 97 == 0) {
+      odometry.add_scan(scan);  // the same sweep twice
+    }
+    if (sweep % 131 == 0) {
+      scan.points.clear();  // an empty sweep
+    } else if (sweep % 151 == 0) {
+      scan.points.resize(20);  // a tiny one
+    }
+    return true;
+  });
+  const OdometryCounters& c = odometry.counters();
+  EXPECT_GT(c.imu_gaps, 0);
+  EXPECT_GT(c.imu_rejected, 0);
+  EXPECT_GT(c.scans_out_of_order, 0);
+  EXPECT_GE(c.scans_too_small, 3);
+  const eval::TrajectoryMetrics m = run.metrics(r);
+  EXPECT_LT(m.rpe_translation_percent, 1.5);
+  EXPECT_LT(m.ate_position_rmse_m, 0.5);
+  for (const OdometryEstimate& e : run.estimates) {
+    ASSERT_TRUE(e.T_odom_body.matrix().allFinite());
+  }
+}
+
+// A pose correction is blended in: the output never jumps, and it arrives.
+TEST(Odometry, PoseCorrectionsAreBlendedWithoutJumps) {
+  const Recording& r = campus_drive();
+  OdometryConfig config = config_for(r);
+  LidarInertialOdometry reference(config);
+  const Replayed plain = replay(r, reference);
+  LidarInertialOdometry odometry(config);
+  bool sent = false;
+  const Replayed run = replay(r, odometry, [&](std::variant<ImuSample, LidarScan>&) {
+    if (!sent && odometry.counters().scans_processed == 300) {
+      // The optimizer says: 1 m further east and 2 degrees more yaw than you think.
+      const OdometryEstimate& e = plain.estimates[299];
+      OdometryCorrection c;
+      c.utime_us = e.utime_us;
+      c.T_odom_body = se3::make(so3::exp(Eigen::Vector3d(0, 0, 0.035)), Eigen::Vector3d(1, 0, 0)) *
+                      e.T_odom_body;
+      odometry.add_correction(c);
+      sent = true;
+    }
+    return true;
+  });
+  ASSERT_TRUE(sent);
+  EXPECT_EQ(odometry.counters().corrections_applied, 1);
+  ASSERT_EQ(run.estimates.size(), plain.estimates.size());
+  // Sweep to sweep, the corrected output moves like the plain one but for one blending
+  // step: within the step limits, never a jump.
+  double max_step_m = 0.0, max_step_rad = 0.0;
+  for (size_t i = 1; i < run.estimates.size(); ++i) {
+    const Eigen::Isometry3d plain_motion =
+        plain.estimates[i - 1].T_odom_body.inverse() * plain.estimates[i].T_odom_body;
+    const Eigen::Isometry3d motion =
+        run.estimates[i - 1].T_odom_body.inverse() * run.estimates[i].T_odom_body;
+    const Eigen::Isometry3d step = plain_motion.inverse() * motion;
+    max_step_m = std::max(max_step_m, step.translation().norm());
+    max_step_rad = std::max(max_step_rad, se3::rotation_angle(step));
+  }
+  EXPECT_LT(max_step_m, config.correction_max_step_m + 1e-6);
+  EXPECT_LT(max_step_rad, config.correction_max_step_rad + 1e-6);
+  EXPECT_GT(max_step_m, 0.5 * config.correction_max_step_m) << "the correction was blended in";
+  // In the end the correction is all there: the corrected output is the plain one moved
+  // by the correction.
+  const OdometryEstimate& first_after = plain.estimates[299];
+  const Eigen::Isometry3d correction =
+      se3::make(so3::exp(Eigen::Vector3d(0, 0, 0.035)), Eigen::Vector3d(1, 0, 0));
+  const Eigen::Isometry3d expected = correction * first_after.T_odom_body *
+                                     first_after.T_odom_body.inverse() *
+                                     plain.estimates.back().T_odom_body;
+  EXPECT_LT((run.estimates.back().T_odom_body.translation() - expected.translation()).norm(), 0.01);
+  // A correction for a time the odometry never saw is refused.
+  OdometryCorrection stale;
+  stale.utime_us = 1;
+  stale.T_odom_body = Eigen::Isometry3d::Identity();
+  odometry.add_correction(stale);
+  EXPECT_EQ(odometry.counters().corrections_rejected, 1);
+}
+
+// Down a long featureless tunnel: registration is degenerate along it; the filter keeps
+// the IMU's motion there instead of diverging.
+TEST(Odometry, CorridorIsDegenerateButDoesNotDiverge) {
+  sim::WorldConfig world;
+  world.kind = "corridor";
+  const Recording r = record(
+      "corridor",
+      {{0, 0}, {world.corridor_length_m, 0}, {world.corridor_length_m, world.corridor_spacing_m}});
+  LidarInertialOdometry odometry(config_for(r));
+  const eval::TrajectoryMetrics m = replay(r, odometry).metrics(r);
+  EXPECT_GT(odometry.counters().degenerate_scans, 50);
+  EXPECT_LT(m.ate_position_rmse_m, 0.02 * m.path_length_m);
+  EXPECT_LT(m.rpe_translation_percent, 3.0);
+}
+
+}  // namespace
+}  // namespace liloc
