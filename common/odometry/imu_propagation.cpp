@@ -9,7 +9,8 @@ namespace liloc {
 
 void ImuNoiseConfig::validate() const {
   if (accel_noise_density <= 0 || gyro_noise_density <= 0 || accel_bias_random_walk < 0 ||
-      gyro_bias_random_walk < 0 || gravity_mps2 <= 0 || max_sample_gap_s <= 0) {
+      gyro_bias_random_walk < 0 || gravity_mps2 <= 0 || max_sample_gap_s <= 0 ||
+      gap_accel_density < 0 || gap_gyro_density < 0) {
     throw std::invalid_argument(
         "IMU noise densities, gravity and max_sample_gap_s must be positive");
   }
@@ -37,16 +38,15 @@ PropagationStats propagate(NavState& x, StateMatrix& P, int64_t t_from, int64_t 
     const ImuSample& a = samples[k];
     const ImuSample& b = has_next ? samples[k + 1] : samples[k];
     const double spacing_s = has_next ? (b.utime_us - a.utime_us) * 1e-6 : 0.0;
-    double inflation = 1.0;
+    bool unmeasured = false;
     if (spacing_s > noise.max_sample_gap_s) {
       ++stats.gaps;
-      inflation = spacing_s / noise.max_sample_gap_s;
+      unmeasured = true;
     }
     if (!has_next) {
-      // Past the last sample the IMU is a guess: trust it less the longer it lasts.
+      // Past the last sample the IMU is a guess, once the silence is longer than usual.
       stats.extrapolated_s += dt;
-      const double since_sample = (t_next - a.utime_us) * 1e-6;
-      inflation = std::max(inflation, since_sample / noise.max_sample_gap_s);
+      unmeasured = unmeasured || (t_next - a.utime_us) * 1e-6 > noise.max_sample_gap_s;
     }
     omega = 0.5 * (a.gyro_rps + b.gyro_rps) - x.bg;
     const Eigen::Vector3d acc = 0.5 * (a.accel_mps2 + b.accel_mps2) - x.ba;
@@ -75,8 +75,12 @@ PropagationStats propagate(NavState& x, StateMatrix& P, int64_t t_from, int64_t 
     q.segment<3>(kBa).setConstant(noise.accel_bias_random_walk * noise.accel_bias_random_walk * dt);
     q.segment<2>(kGrav).setConstant(noise.gravity_direction_random_walk *
                                     noise.gravity_direction_random_walk * dt);
+    if (unmeasured) {
+      q.segment<3>(kRot).array() += noise.gap_gyro_density * noise.gap_gyro_density * dt;
+      q.segment<3>(kVel).array() += noise.gap_accel_density * noise.gap_accel_density * dt;
+    }
     P = F * P * F.transpose();
-    P.diagonal() += inflation * q;
+    P.diagonal() += q;
 
     x.p += x.v * dt + 0.5 * accel_local * dt * dt;
     x.v += accel_local * dt;

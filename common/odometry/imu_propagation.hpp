@@ -24,6 +24,11 @@ struct ImuNoiseConfig {
   // of blaming the accelerometer bias.
   double gravity_direction_random_walk = 1e-4;  // rad/sqrt(s)
   double max_sample_gap_s = 0.05;               // a longer silence between samples is an IMU gap
+  // Across a gap (or past the last sample) the motion is interpolated, and what the
+  // vehicle really did is unknown: its acceleration and rate are taken to wander by
+  // these densities (a car's manoeuvres, not the sensor's noise).
+  double gap_accel_density = 1.0;  // m/s^2/sqrt(s)
+  double gap_gyro_density = 0.2;   // rad/s/sqrt(s)
 
   template <class V>
   void visit_fields(V& v) {
@@ -34,6 +39,8 @@ struct ImuNoiseConfig {
     v("gravity_mps2", gravity_mps2);
     v("gravity_direction_random_walk", gravity_direction_random_walk);
     v("max_sample_gap_s", max_sample_gap_s);
+    v("gap_accel_density", gap_accel_density);
+    v("gap_gyro_density", gap_gyro_density);
   }
   void validate() const;
 };

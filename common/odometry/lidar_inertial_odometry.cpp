@@ -1,5 +1,6 @@
 #include "odometry/lidar_inertial_odometry.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -28,26 +29,30 @@ Matrix6d swap_pose_blocks(const Matrix6d& m) {
   return out;
 }
 
-// One point per voxel (the first, with its own time) for registration, then at most
-// max_points of them, evenly strided through the sweep.
-std::vector<LidarPoint> registration_points(const std::vector<LidarPoint>& points, float voxel_m,
-                                            int max_points) {
+// One point per voxel (the first, so that it keeps its own time).
+std::vector<LidarPoint> first_per_voxel(const std::vector<LidarPoint>& points, float voxel_m) {
   VoxelIndexTable seen(points.size() / 4 + 1);
-  std::vector<LidarPoint> sparse;
-  sparse.reserve(points.size() / 4);
+  std::vector<LidarPoint> out;
+  out.reserve(points.size() / 4);
   for (const LidarPoint& p : points) {
     if (seen.insert(voxel_key(voxel_index(p.position_m, voxel_m))).second) {
-      sparse.push_back(p);
+      out.push_back(p);
     }
   }
-  if (static_cast<int>(sparse.size()) <= max_points) {
-    return sparse;
+  return out;
+}
+
+// At most max_points of them, evenly strided: beyond a few thousand well-spread points,
+// more only cost registration time (the map still gets all of them).
+std::vector<Eigen::Vector3f> strided(const std::vector<Eigen::Vector3f>& points, int max_points) {
+  if (static_cast<int>(points.size()) <= max_points) {
+    return points;
   }
-  std::vector<LidarPoint> out;
+  std::vector<Eigen::Vector3f> out;
   out.reserve(static_cast<size_t>(max_points));
-  const double stride = static_cast<double>(sparse.size()) / max_points;
+  const double stride = static_cast<double>(points.size()) / max_points;
   for (int i = 0; i < max_points; ++i) {
-    out.push_back(sparse[static_cast<size_t>(i * stride)]);
+    out.push_back(points[static_cast<size_t>(i * stride)]);
   }
   return out;
 }
@@ -225,6 +230,57 @@ void LidarInertialOdometry::predict(int64_t end_utime, MotionProfile& motion) {
   state_utime_ = end_utime;
 }
 
+RegistrationConfig LidarInertialOdometry::registration_config() const {
+  const double sigma_p = std::sqrt(P_.block<3, 3>(kPos, kPos).diagonal().maxCoeff());
+  const double sigma_r = std::sqrt(P_.block<3, 3>(kRot, kRot).diagonal().maxCoeff());
+  RegistrationConfig out = config_.registration;
+  out.max_correspondence_m = std::clamp(
+      config_.correspondence_sigmas * (sigma_p + sigma_r * config_.correspondence_lever_m),
+      config_.registration.max_correspondence_m, config_.correspondence_cap_m);
+  return out;
+}
+
+bool LidarInertialOdometry::standing_still(int64_t t0_us, int64_t t1_us) const {
+  // A vehicle cruising straight on a smooth road has the same IMU signature as one that
+  // stands, so the filter must already believe it is (nearly) standing.
+  if (x_.v.norm() > config_.standstill_max_speed_mps) {
+    return false;
+  }
+  const std::vector<ImuSample> samples = imu_.between(t0_us, t1_us);
+  const double duration_s = (t1_us - t0_us) * 1e-6;
+  if (samples.size() < 5 || duration_s <= 0) {
+    return false;
+  }
+  const double n = static_cast<double>(samples.size());
+  Eigen::Vector3d mean_gyro = Eigen::Vector3d::Zero();
+  Eigen::Vector3d mean_acc = Eigen::Vector3d::Zero();
+  for (const ImuSample& s : samples) {
+    mean_gyro += s.gyro_rps / n;
+    mean_acc += s.accel_mps2 / n;
+  }
+  double acc_variance = 0.0;  // per axis
+  for (const ImuSample& s : samples) {
+    acc_variance += (s.accel_mps2 - mean_acc).squaredNorm() / (3.0 * n);
+  }
+  // Thresholds above the white noise that the IMU's own density predicts at its rate.
+  const double rate_hz = n / duration_s;
+  const double gyro_mean_noise = config_.imu.gyro_noise_density * std::sqrt(rate_hz / n);
+  const double acc_sample_noise = config_.imu.accel_noise_density * std::sqrt(rate_hz);
+  return (mean_gyro - x_.bg).norm() < config_.standstill_gyro_rps + 3.0 * gyro_mean_noise &&
+         std::sqrt(acc_variance) < config_.standstill_accel_std_mps2 + 2.0 * acc_sample_noise;
+}
+
+void LidarInertialOdometry::zero_velocity_update() {
+  // Kalman update with z = 0 - v, H selecting the velocity.
+  const Eigen::Matrix3d S =
+      P_.block<3, 3>(kVel, kVel) +
+      Eigen::Matrix3d::Identity() * std::pow(config_.standstill_velocity_sigma_mps, 2);
+  const Eigen::Matrix<double, kStateDim, 3> K = P_.middleCols<3>(kVel) * S.inverse();
+  x_ = boxplus(x_, K * (-x_.v));
+  P_ -= K * P_.middleRows<3>(kVel);
+  P_ = 0.5 * (P_ + P_.transpose());
+}
+
 void LidarInertialOdometry::update(const RegistrationResult& result) {
   // The registration solved for the pose with the filter's pose marginal as prior. The
   // other states follow through their correlation with the pose, and the covariance
@@ -274,8 +330,8 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
       valid.push_back(p);
     }
   }
-  const std::vector<LidarPoint> sparse = registration_points(
-      valid, static_cast<float>(config_.registration_voxel_m), config_.max_registration_points);
+  const std::vector<LidarPoint> sparse =
+      first_per_voxel(valid, static_cast<float>(config_.registration_voxel_m));
   est.timings.preprocess_ms = ms_since(t);
 
   // Predict to the sweep's end and deskew.
@@ -283,6 +339,11 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
   const Eigen::Isometry3d T_prev = T_local_body();
   MotionProfile motion;
   predict(end_utime, motion);
+  if (config_.use_imu && config_.zero_velocity_update && standing_still(start_utime, end_utime)) {
+    zero_velocity_update();
+    est.standing = true;
+    ++counters_.standstill_scans;
+  }
   const std::vector<Eigen::Vector3f> points_body =
       deskew(sparse, start_utime, end_utime, motion, T_body_lidar_);
   est.timings.propagate_ms = ms_since(t);
@@ -296,9 +357,9 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
     prior.T_map_body = T_local_body();
     const Matrix6d P_pp = P_.topLeftCorner<6, 6>();
     prior.information = swap_pose_blocks(P_pp).inverse();
-    const RegistrationResult result =
-        register_point_to_plane(points_body, map_, prior.T_map_body, prior, config_.registration,
-                                T_body_lidar_.translation());
+    const RegistrationResult result = register_point_to_plane(
+        strided(points_body, config_.max_registration_points), map_, prior.T_map_body, prior,
+        registration_config(), T_body_lidar_.translation());
     update(result);
     if (!config_.use_imu) {
       const double dt = std::max((end_utime - start_utime) * 1e-6, 1e-3);

@@ -33,8 +33,7 @@ struct OdometryConfig {
   double min_range_m = 1.5;
   double max_range_m = 100.0;
   double registration_voxel_m = 0.5;
-  // At most this many points (evenly strided) go to registration: beyond a few thousand
-  // well-spread points, more only cost time.
+  // At most this many of them (evenly strided) go to registration; the map gets all.
   int max_registration_points = 3000;
   // A sweep is added to the map only after the body moved this much since the last one
   // added: a standing sensor would otherwise pile its own range noise into the map as
@@ -52,11 +51,28 @@ struct OdometryConfig {
   double stationary_accel_std_mps2 = 0.3;  // below: a standing start
   double stationary_gyro_std_rps = 0.03;
   double imu_wait_s = 0.2;  // then a sweep goes ahead without full IMU coverage
+  // Zero-velocity update: when the filter's speed is low and the IMU says the vehicle
+  // stands (mean rate ~0 and specific force steady over the sweep, beyond the white
+  // noise its density predicts), velocity 0 is a measurement. It keeps a standing robot
+  // from drifting while its sweeps, all from one viewpoint, constrain little.
+  bool zero_velocity_update = true;
+  double standstill_max_speed_mps = 0.3;
+  double standstill_gyro_rps = 0.01;
+  double standstill_accel_std_mps2 = 0.05;
+  double standstill_velocity_sigma_mps = 0.01;
   // LiDAR-only constant-velocity model: expected change of velocity per second.
   double motion_translation_sigma_mps = 2.0;
   double motion_rotation_sigma_rps = 0.5;
   VoxelMapConfig map;
+  // registration.max_correspondence_m is the floor of the association radius; it widens
+  // with the predicted pose's uncertainty (this many sigmas, the rotation's taken at
+  // correspondence_lever_m) up to correspondence_cap_m. A tight radius keeps a well
+  // predicted sweep from latching onto wrong planes; a wide one lets a poorly predicted
+  // sweep (no IMU, IMU gap, degenerate axis) still find its planes.
   RegistrationConfig registration;
+  double correspondence_sigmas = 3.0;
+  double correspondence_lever_m = 10.0;
+  double correspondence_cap_m = 2.0;
   // Pose corrections are blended in: this fraction of what remains per sweep, at most
   // the step limits, so that the output never jumps.
   double correction_blend = 0.1;
@@ -85,10 +101,18 @@ struct OdometryConfig {
     v("stationary_accel_std_mps2", stationary_accel_std_mps2);
     v("stationary_gyro_std_rps", stationary_gyro_std_rps);
     v("imu_wait_s", imu_wait_s);
+    v("zero_velocity_update", zero_velocity_update);
+    v("standstill_max_speed_mps", standstill_max_speed_mps);
+    v("standstill_gyro_rps", standstill_gyro_rps);
+    v("standstill_accel_std_mps2", standstill_accel_std_mps2);
+    v("standstill_velocity_sigma_mps", standstill_velocity_sigma_mps);
     v("motion_translation_sigma_mps", motion_translation_sigma_mps);
     v("motion_rotation_sigma_rps", motion_rotation_sigma_rps);
     v("map", map);
     v("registration", registration);
+    v("correspondence_sigmas", correspondence_sigmas);
+    v("correspondence_lever_m", correspondence_lever_m);
+    v("correspondence_cap_m", correspondence_cap_m);
     v("correction_blend", correction_blend);
     v("correction_max_step_m", correction_max_step_m);
     v("correction_max_step_rad", correction_max_step_rad);
@@ -134,6 +158,11 @@ class LidarInertialOdometry {
   OdometryEstimate process_scan(const LidarScan& scan, int64_t start_utime, int64_t end_utime);
   void predict(int64_t end_utime, MotionProfile& motion);
   void update(const RegistrationResult& result);
+  // True if the IMU samples of (t0, t1] show a standing vehicle.
+  bool standing_still(int64_t t0_us, int64_t t1_us) const;
+  // The registration settings for this sweep: the association radius follows P_.
+  RegistrationConfig registration_config() const;
+  void zero_velocity_update();
   void blend_correction();
   std::optional<Eigen::Isometry3d> pose_in_history(int64_t utime_us) const;
   Eigen::Isometry3d T_local_body() const;

@@ -45,6 +45,7 @@ struct OdometryEstimate {
   // Right perturbation T = T_est Exp(d), d = (translation m, rotation rad), body frame.
   Matrix6d covariance = Matrix6d::Identity();
   bool registered = false;  // false: too few points, the pose is the prediction
+  bool standing = false;    // the IMU saw the vehicle standing; velocity 0 was applied
   double fitness_m = 0.0;   // RMS point-to-plane residual
   int correspondences = 0;
   bool degenerate = false;
@@ -72,6 +73,7 @@ struct OdometryCounters {
   int64_t scans_without_imu = 0;   // processed past the last IMU sample (IMU late or gone)
   int64_t imu_gaps = 0;            // IMU silences longer than max_sample_gap_s
   int64_t degenerate_scans = 0;
+  int64_t standstill_scans = 0;  // zero-velocity updates applied
   int64_t keyframes = 0;
   int64_t corrections_applied = 0;
   int64_t corrections_rejected = 0;  // time outside the kept history, or non-finite

@@ -21,7 +21,7 @@ namespace liloc {
 struct RegistrationConfig {
   int max_iterations = 8;               // Gauss-Newton / LM steps
   int max_associations = 3;             // nearest-neighbour searches (the first iterations)
-  double max_correspondence_m = 1.0;    // search radius of the 5 nearest neighbours
+  double max_correspondence_m = 0.5;    // search radius of the 5 nearest neighbours
   double max_plane_thickness_m = 0.05;  // every neighbour within this of the fitted plane
   double cauchy_scale_m = 0.1;          // robust kernel: residuals well beyond are discounted
   // A plane seen nearly edge-on (|normal . ray| below this) is not used: along the ray

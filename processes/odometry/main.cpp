@@ -105,6 +105,7 @@ class OdometryProcess {
                        {"non_finite_imu", non_finite_imu_},
                        {"non_finite_points", non_finite_points_},
                        {"degenerate_scans", c.degenerate_scans},
+                       {"standstill_scans", c.standstill_scans},
                        {"keyframes", c.keyframes},
                        {"corrections_applied", c.corrections_applied},
                        {"corrections_rejected", c.corrections_rejected},

@@ -1,0 +1,157 @@
+#pragma once
+// What the map server does, without the wire: answers submap requests from many robots
+// (by position through Tree_m, or by id), chunked into parts of whole keyframes that fit
+// a message, and grows the central session from incremental-localization updates
+// (assembled from their chunks, validated, cut into new submaps by Eq. 2). The process
+// converts messages to and from these types and saves the map.
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "map/map_types.hpp"
+#include "map/submap_database.hpp"
+#include "pointcloud/point_cloud.hpp"
+
+namespace liloc {
+
+struct MapServiceConfig {
+  int max_submaps_per_reply = 4;
+  // Keyframe clouds per reply message, in points (16 bytes each on the wire): a submap
+  // beyond this is sent in several chunks of whole keyframes.
+  int max_chunk_points = 150000;
+  std::vector<std::string> allowed_robots;  // updates from other robots are refused; empty: any
+  int max_update_keyframes = 1000;
+  int64_t max_update_points = 20000000;
+  double update_timeout_s = 30.0;  // an update still missing chunks after this is dropped
+  SubmapConfig submaps;
+
+  template <class V>
+  void visit_fields(V& v) {
+    v("max_submaps_per_reply", max_submaps_per_reply);
+    v("max_chunk_points", max_chunk_points);
+    v("allowed_robots", allowed_robots);
+    v("max_update_keyframes", max_update_keyframes);
+    v("max_update_points", max_update_points);
+    v("update_timeout_s", update_timeout_s);
+    v("submaps", submaps);
+  }
+  void validate() const;
+};
+
+struct SubmapQuery {
+  std::string robot_id;
+  int64_t request_id = 0;
+  bool by_id = false;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // map frame
+  double radius_m = 0.0;                               // 0: the nearest submap only
+  int max_submaps = 0;                                 // 0: the server's maximum
+  std::vector<int64_t> submap_ids;
+  bool include_clouds = true;
+};
+
+// One message of a reply.
+struct SubmapReplyPart {
+  std::string robot_id;
+  int64_t request_id = 0;
+  int reply_index = 0;
+  int reply_count = 0;
+  int64_t map_version = 0;
+  std::optional<Submap> submap;  // none: the request matched nothing
+  int chunk_index = 0;
+  int num_chunks = 0;
+  std::vector<MapKeyframe> keyframes;                     // this chunk's
+  std::vector<std::shared_ptr<const PointCloud>> clouds;  // body frame; empty without clouds
+};
+
+struct UpdateKeyframe {
+  int64_t sender_keyframe_id = 0;
+  int64_t utime_us = 0;
+  Eigen::Isometry3d T_map_body = Eigen::Isometry3d::Identity();
+  double fitness_m = 0.0;
+  PointCloud cloud_body;
+};
+
+// One message of an update.
+struct MapUpdatePart {
+  std::string robot_id;
+  std::string session_id;
+  int64_t update_id = 0;
+  int chunk_index = 0;
+  int num_chunks = 0;
+  int64_t base_map_version = 0;
+  std::vector<UpdateKeyframe> keyframes;
+};
+
+struct UpdateOutcome {
+  enum class Status { kPending, kMerged, kRejected };
+  Status status = Status::kPending;
+  std::string reason;                      // why it was rejected
+  std::vector<MapKeyframe> new_keyframes;  // merged, with their map ids
+  std::vector<Submap> new_submaps;
+};
+
+struct MapServiceCounters {
+  int64_t requests = 0;
+  int64_t empty_replies = 0;
+  int64_t updates_merged = 0;
+  int64_t updates_rejected = 0;
+  int64_t updates_expired = 0;
+  int64_t keyframes_merged = 0;
+};
+
+class MapService {
+ public:
+  using CloudSource = std::function<std::shared_ptr<const PointCloud>(int64_t keyframe_id)>;
+
+  MapService(MapData map, CloudSource clouds, const MapServiceConfig& config);
+  MapService(const MapService&) = delete;
+  MapService& operator=(const MapService&) = delete;
+
+  std::vector<SubmapReplyPart> answer(const SubmapQuery& query);
+
+  // Buffers a part of an update; once all parts of it arrived and it is valid, merges it
+  // into the map (a new version). Malformed parts or updates are rejected with a reason.
+  UpdateOutcome receive(MapUpdatePart part, int64_t now_us);
+  // Drops updates still incomplete after update_timeout_s (counted as expired).
+  void expire(int64_t now_us);
+
+  const MapData& map() const { return map_; }
+  const SubmapDatabase& database() const { return database_; }
+  const MapServiceCounters& counters() const { return counters_; }
+  // Clouds merged since the last call: the process saves them with the map, then calls
+  // saved() with the version on disk, so that they are served from storage from then on
+  // and replies name the saved version.
+  std::map<int64_t, PointCloud> take_new_clouds();
+  void saved(int64_t version, const std::vector<int64_t>& keyframe_ids);
+
+ private:
+  struct PendingUpdate {
+    std::string session_id;
+    int num_chunks = 0;
+    int64_t first_seen_us = 0;
+    int64_t points = 0;
+    std::map<int, std::vector<UpdateKeyframe>> chunks;
+  };
+  std::optional<std::string> validate(const MapUpdatePart& part) const;
+  UpdateOutcome merge(const std::string& robot_id, PendingUpdate& update);
+  std::vector<SubmapReplyPart> reply_for(const SubmapQuery& query, const std::vector<int64_t>& ids);
+  std::shared_ptr<const PointCloud> cloud(int64_t keyframe_id);
+
+  MapData map_;
+  CloudSource cloud_source_;
+  MapServiceConfig config_;
+  SubmapDatabase database_;
+  MapServiceCounters counters_;
+  std::map<std::pair<std::string, int64_t>, PendingUpdate> pending_;  // (robot, update id)
+  std::set<std::pair<std::string, int64_t>> finished_;  // merged or rejected: repeats ignored
+  std::map<int64_t, std::shared_ptr<const PointCloud>> merged_clouds_;  // until saved
+  std::map<int64_t, PointCloud> unsaved_clouds_;
+};
+
+}  // namespace liloc

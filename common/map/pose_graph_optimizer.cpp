@@ -1,0 +1,80 @@
+#include "map/pose_graph_optimizer.hpp"
+
+#include <ceres/loss_function.h>
+#include <ceres/manifold.h>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+
+#include <map>
+#include <stdexcept>
+
+#include "map/relative_pose_cost.hpp"
+
+namespace liloc {
+
+PoseGraphResult optimize_pose_graph(std::vector<MapKeyframe>& keyframes,
+                                    const std::vector<PoseGraphEdge>& edges,
+                                    const PoseGraphConfig& config) {
+  PoseGraphResult result;
+  if (keyframes.size() < 2 || edges.empty()) {
+    result.converged = true;
+    return result;
+  }
+  // Parameter blocks: position and quaternion (x, y, z, w) per keyframe.
+  struct Node {
+    Eigen::Vector3d p;
+    Eigen::Quaterniond q;
+  };
+  std::vector<Node> nodes(keyframes.size());
+  std::map<int64_t, size_t> index;
+  for (size_t i = 0; i < keyframes.size(); ++i) {
+    nodes[i] = {keyframes[i].T_map_body.translation(),
+                Eigen::Quaterniond(keyframes[i].T_map_body.linear()).normalized()};
+    index[keyframes[i].id] = i;
+  }
+  ceres::Problem problem;  // owns the manifold, costs and losses
+  ceres::Manifold* quaternion_manifold = new ceres::EigenQuaternionManifold;
+  for (const PoseGraphEdge& e : edges) {
+    const auto a = index.find(e.from);
+    const auto b = index.find(e.to);
+    if (a == index.end() || b == index.end()) {
+      throw std::invalid_argument("pose graph edge " + std::to_string(e.from) + " -> " +
+                                  std::to_string(e.to) + " names a missing keyframe");
+    }
+    const Matrix6d sqrt_information = e.information.llt().matrixU();
+    ceres::LossFunction* loss = e.kind == PoseGraphEdge::Kind::kLoop
+                                    ? new ceres::CauchyLoss(config.loop_loss_scale)
+                                    : nullptr;
+    Node& na = nodes[a->second];
+    Node& nb = nodes[b->second];
+    problem.AddResidualBlock(RelativePoseCost::create(e.T_from_to, sqrt_information), loss,
+                             na.p.data(), na.q.coeffs().data(), nb.p.data(), nb.q.coeffs().data());
+  }
+  for (Node& n : nodes) {
+    if (problem.HasParameterBlock(n.q.coeffs().data())) {
+      problem.SetManifold(n.q.coeffs().data(), quaternion_manifold);
+    }
+  }
+  // The first keyframe anchors the map frame.
+  if (problem.HasParameterBlock(nodes[0].p.data())) {
+    problem.SetParameterBlockConstant(nodes[0].p.data());
+    problem.SetParameterBlockConstant(nodes[0].q.coeffs().data());
+  }
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  options.max_num_iterations = config.max_iterations;
+  options.num_threads = config.threads;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  for (size_t i = 0; i < keyframes.size(); ++i) {
+    keyframes[i].T_map_body = se3::make(nodes[i].q.normalized(), nodes[i].p);
+  }
+  result.iterations = static_cast<int>(summary.iterations.size());
+  result.initial_cost = summary.initial_cost;
+  result.final_cost = summary.final_cost;
+  result.converged = summary.termination_type == ceres::CONVERGENCE;
+  result.solve_s = summary.total_time_in_seconds;
+  return result;
+}
+
+}  // namespace liloc

@@ -1,0 +1,284 @@
+// liloc_map_server: serves the central session to every robot and grows it.
+//   in:  MAP.REQUEST (submap_request_t), MAP.UPDATE (map_update_t)
+//   out: <robot>.SUBMAP (submap_t, addressed), MAP.INFO (map_info_t), MAP.STATUS
+// Saves merged updates as new map versions in a background thread (atomic, see
+// docs/map_format.md), so that serving never waits for the disk.
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <thread>
+
+#include "app/program.hpp"
+#include "bridge/map_conversions.hpp"
+#include "bridge/status_report.hpp"
+#include "config/yaml_config.hpp"
+#include "descriptor/polar_descriptor.hpp"
+#include "storage/cloud_cache.hpp"
+#include "storage/map_error.hpp"
+#include "storage/map_store.hpp"
+#include "system/system_config.hpp"
+
+namespace {
+using namespace liloc;
+using Clock = std::chrono::steady_clock;
+
+int64_t now_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// Saves map versions one after another on its own thread.
+class MapSaver {
+ public:
+  struct Job {
+    MapData map;
+    std::map<int64_t, PointCloud> clouds;
+  };
+  struct Done {
+    int64_t version = 0;
+    std::vector<int64_t> keyframe_ids;
+    std::string error;
+  };
+
+  MapSaver(storage::MapStore& store, int64_t version_on_disk, PolarDescriptorConfig descriptor,
+           int keep_versions)
+      : store_(store),
+        version_on_disk_(version_on_disk),
+        descriptor_(descriptor),
+        keep_(keep_versions),
+        thread_([this] { run(); }) {}
+  ~MapSaver() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stopping_ = true;
+    }
+    wake_.notify_all();
+    thread_.join();  // finishes the queued saves first: nothing merged is lost on exit
+  }
+
+  void submit(Job job) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      jobs_.push_back(std::move(job));
+    }
+    wake_.notify_all();
+  }
+
+  std::vector<Done> take_done() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::vector<Done> out(done_.begin(), done_.end());
+    done_.clear();
+    return out;
+  }
+
+ private:
+  void run() {
+    while (true) {
+      Job job;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait(lock, [this] { return stopping_ || !jobs_.empty(); });
+        if (jobs_.empty()) {
+          return;
+        }
+        job = std::move(jobs_.front());
+        jobs_.pop_front();
+      }
+      // Clouds of a failed save go with the next one, which includes their keyframes.
+      job.clouds.insert(unsaved_.begin(), unsaved_.end());
+      unsaved_.clear();
+      job.map.version = version_on_disk_;
+      Done done;
+      try {
+        std::map<int64_t, std::vector<uint8_t>> descriptors;
+        for (const MapKeyframe& kf : job.map.keyframes) {
+          const auto cloud = job.clouds.find(kf.id);
+          if (cloud != job.clouds.end()) {
+            descriptors[kf.id] = encode(
+                make_level_polar_descriptor(cloud->second, kf.T_map_body.linear(), descriptor_));
+            done.keyframe_ids.push_back(kf.id);
+          }
+        }
+        store_.save(job.map, job.clouds, descriptors);
+        version_on_disk_ = job.map.version;
+        done.version = version_on_disk_;
+        store_.prune(keep_);
+      } catch (const std::exception& e) {
+        done.error = e.what();
+        if (done.version == 0) {
+          unsaved_ = std::move(job.clouds);
+          done.keyframe_ids.clear();
+        }
+      }
+      std::lock_guard<std::mutex> lock(mutex_);
+      done_.push_back(std::move(done));
+    }
+  }
+
+  storage::MapStore& store_;
+  int64_t version_on_disk_;
+  std::map<int64_t, PointCloud> unsaved_;
+  PolarDescriptorConfig descriptor_;
+  int keep_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<Job> jobs_;
+  std::deque<Done> done_;
+  bool stopping_ = false;
+  std::thread thread_;
+};
+
+class MapServerProcess {
+ public:
+  MapServerProcess(const SystemConfig& config, storage::MapStore& store, MapData map)
+      : config_(config),
+        store_(store),
+        cache_(store, static_cast<size_t>(config.map_server.cache_mb * 1024 * 1024)),
+        service_(
+            std::move(map), [this](int64_t id) { return cache_.get(id); },
+            config.map_server.service),
+        saver_(store, service_.map().version, config.descriptor, config.map_server.keep_versions),
+        bus_(config.transport) {
+    disk_version_ = service_.map().version;
+    bus_.subscribe<liloc::submap_request_t>(
+        config.channels.map_request,
+        [this](const liloc::submap_request_t& msg, const transport::ReceiveInfo&) {
+          const Clock::time_point start = Clock::now();
+          const SubmapQuery query = bridge::from_msg(msg);
+          for (const SubmapReplyPart& part : service_.answer(query)) {
+            liloc::submap_t reply = bridge::to_msg(part, msg.header.utime);
+            bus_.publish(transport::robot_channel(query.robot_id, config_.channels.submap), reply);
+          }
+          last_reply_ms_ = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+        });
+    bus_.subscribe<liloc::map_update_t>(
+        config.channels.map_update,
+        [this](const liloc::map_update_t& msg, const transport::ReceiveInfo&) {
+          const UpdateOutcome outcome = service_.receive(bridge::from_msg(msg), now_us());
+          if (outcome.status == UpdateOutcome::Status::kRejected) {
+            spdlog::warn("update {} of {} rejected: {}", msg.update_id, msg.header.robot_id,
+                         outcome.reason);
+            last_message_ = "rejected update from " + msg.header.robot_id + ": " + outcome.reason;
+          } else if (outcome.status == UpdateOutcome::Status::kMerged) {
+            spdlog::info("merged update {} of {}: {} keyframes, {} submaps", msg.update_id,
+                         msg.header.robot_id, outcome.new_keyframes.size(),
+                         outcome.new_submaps.size());
+            saver_.submit({service_.map(), service_.take_new_clouds()});
+            ++pending_saves_;
+            publish_info();
+          }
+        });
+  }
+
+  void run() {
+    const MapData& map = service_.map();
+    spdlog::info("serving map '{}' version {}: {} keyframes, {} submaps, on {}", map.map_id,
+                 map.version, map.keyframes.size(), map.submaps.size(), config_.transport.url);
+    Clock::time_point next_info = Clock::now();
+    while (!shutdown_requested()) {
+      if (bus_.handle(50) < 0) {
+        break;
+      }
+      for (const MapSaver::Done& done : saver_.take_done()) {
+        --pending_saves_;
+        if (!done.error.empty()) {
+          spdlog::error("{}: {}",
+                        done.version == 0
+                            ? "saving the map failed (merged keyframes kept for the next save)"
+                            : "the map was saved but pruning old versions failed",
+                        done.error);
+          last_message_ = "save: " + done.error;
+        }
+        if (done.version != 0) {
+          disk_version_ = done.version;
+          service_.saved(done.version, done.keyframe_ids);
+          spdlog::info("saved map version {}", done.version);
+        }
+      }
+      if (Clock::now() >= next_info) {
+        service_.expire(now_us());
+        publish_info();
+        next_info =
+            Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                               std::chrono::duration<double>(config_.map_server.info_period_s));
+      }
+    }
+    spdlog::info("stopping: finishing {} pending save(s)", pending_saves_);
+  }
+
+ private:
+  void publish_info() {
+    liloc::map_info_t info = bridge::to_msg(service_.map(), service_.counters(), now_us());
+    bus_.publish(config_.channels.map_info, info);
+    bridge::StatusReport report;
+    report.process = "map_server";
+    const MapServiceCounters& c = service_.counters();
+    report.timings_ms = {{"last_reply", static_cast<float>(last_reply_ms_)}};
+    report.counters = {{"requests", c.requests},
+                       {"empty_replies", c.empty_replies},
+                       {"updates_merged", c.updates_merged},
+                       {"updates_rejected", c.updates_rejected},
+                       {"updates_expired", c.updates_expired},
+                       {"keyframes_merged", c.keyframes_merged},
+                       {"map_version", disk_version_},
+                       {"pending_saves", pending_saves_},
+                       {"cache_bytes", static_cast<int64_t>(cache_.bytes())},
+                       {"cache_hits", cache_.hits()},
+                       {"cache_misses", cache_.misses()}};
+    report.add_transport_counters(bus_);
+    report.message = last_message_;
+    liloc::status_t status = bridge::to_msg(report, now_us(), "map_server");
+    bus_.publish(config_.map_server.status_channel, status);
+  }
+
+  SystemConfig config_;
+  storage::MapStore& store_;
+  storage::CloudCache cache_;
+  MapService service_;
+  MapSaver saver_;
+  transport::Transport bus_;
+  int64_t disk_version_ = 0;
+  int pending_saves_ = 0;
+  double last_reply_ms_ = 0.0;
+  std::string last_message_;
+};
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string config_path = "config/liloc.yaml";
+  std::string map_directory;
+  std::string url;
+  bool print_config = false;
+  CommandLine cli("liloc_map_server", "Serves the central session's submaps to every robot.");
+  cli.add_option("config", &config_path, "system config (YAML)");
+  cli.add_option("map", &map_directory, "map directory, overrides map_server.map_directory");
+  cli.add_option("lcm-url", &url, "LCM URL, overrides the config");
+  cli.add_flag("print-config", &print_config, "print the effective config and exit");
+  return run_program(cli, "map_server", argc, argv, [&]() -> int {
+    SystemConfig config = load_config<SystemConfig>(config_path);
+    if (!map_directory.empty()) {
+      config.map_server.map_directory = map_directory;
+    }
+    if (!url.empty()) {
+      config.transport.url = url;
+    }
+    if (print_config) {
+      std::printf("%s\n", dump_config(config).c_str());
+      return 0;
+    }
+    storage::MapStore store(config.map_server.map_directory);
+    if (!store.exists()) {
+      throw std::runtime_error(config.map_server.map_directory +
+                               ": no map (build one with liloc_map build)");
+    }
+    MapData map = store.load();  // a damaged map stops here, naming the file
+    MapServerProcess process(config, store, std::move(map));
+    process.run();
+    return 0;
+  });
+}
