@@ -1,6 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <vector>
+
 #include "app/command_line.hpp"
+#include "app/process_memory.hpp"
 #include "app/program.hpp"
 
 namespace liloc {
@@ -89,6 +92,18 @@ TEST(Program, ExitCodesReportOutcome) {
   EXPECT_EQ(run_program(throwing, "prog", 3, ok_argv,
                         []() -> int { throw std::runtime_error("map directory is corrupt"); }),
             1);
+}
+
+TEST(ProcessMemory, GrowsWithAllocationsAndIsZeroForNoProcess) {
+  const ProcessMemory before = read_process_memory();
+  EXPECT_GT(before.rss_mb, 0.0);
+  EXPECT_GE(before.peak_mb, before.rss_mb);
+  std::vector<char> block(64 * 1024 * 1024, 1);  // touched: resident
+  const ProcessMemory after = read_process_memory();
+  EXPECT_GT(after.rss_mb, before.rss_mb + 50.0) << static_cast<int>(block[12345]);
+  const ProcessMemory gone = read_process_memory("999999999");
+  EXPECT_EQ(gone.rss_mb, 0.0);
+  EXPECT_EQ(gone.peak_mb, 0.0);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <string>
 
+#include "app/process_memory.hpp"
 #include "app/program.hpp"
 #include "config/yaml_config.hpp"
 #include "eval/json_writer.hpp"
@@ -31,20 +32,6 @@ std::vector<std::string> split(const std::string& text) {
     out.push_back(item);
   }
   return out;
-}
-
-// Resident set size now and at its peak, MB (Linux).
-std::pair<double, double> rss_mb() {
-  std::ifstream status("/proc/self/status");
-  double now = 0.0, peak = 0.0;
-  for (std::string line; std::getline(status, line);) {
-    if (line.rfind("VmRSS:", 0) == 0) {
-      now = std::stod(line.substr(6)) / 1024.0;
-    } else if (line.rfind("VmHWM:", 0) == 0) {
-      peak = std::stod(line.substr(6)) / 1024.0;
-    }
-  }
-  return {now, peak};
 }
 
 struct Run {
@@ -136,7 +123,7 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
         stage_ms[k].push_back(stages[k]);
       }
       if (static_cast<int64_t>(cycle_ms.size()) == total_sweeps / 4) {
-        run.rss_quarter_mb = rss_mb().first;
+        run.rss_quarter_mb = read_process_memory().rss_mb;
       }
     }
   };
@@ -147,8 +134,8 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
                 },
                 [](double) {}, 2);
   consume(odometry.flush());
-  run.rss_end_mb = rss_mb().first;
-  run.peak_rss_mb = rss_mb().second;
+  run.rss_end_mb = read_process_memory().rss_mb;
+  run.peak_rss_mb = read_process_memory().peak_mb;
   run.map_points = odometry.map_points();
   run.degenerate_scans = odometry.counters().degenerate_scans;
   run.keyframes = odometry.counters().keyframes;

@@ -10,10 +10,12 @@
 // bytes) or exceeds max_message_bytes is counted, logged (rate-limited) and skipped;
 // a handler that throws is counted and logged; sequence gaps per sender count as drops.
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -73,7 +75,7 @@ class Transport {
 
   // Typed publish: sets msg.header.seq from a per-channel counter, then encodes.
   // Returns false (counted, logged) if the message exceeds max_message_bytes or
-  // LCM refuses it.
+  // LCM refuses it. Publishing is thread-safe (handle() is not: one thread dispatches).
   template <class Msg>
   bool publish(const std::string& channel, Msg& msg);
 
@@ -98,7 +100,7 @@ class Transport {
 
   // Cumulative counters per subscribed channel, and publish failures.
   std::map<std::string, ChannelStats> stats() const;
-  int64_t publish_errors() const { return publish_errors_; }
+  int64_t publish_errors() const { return publish_errors_.load(); }
 
   const TransportConfig& config() const { return config_; }
 
@@ -119,8 +121,9 @@ class Transport {
   std::unique_ptr<lcm::LCM> lcm_;
   std::unique_ptr<lcm::LCM> publish_lcm_;  // only with a separate publish_url
   std::vector<std::unique_ptr<Subscription>> subscriptions_;
+  std::mutex publish_mutex_;  // guards next_seq_ and the LCM send
   std::map<std::string, int64_t> next_seq_;
-  int64_t publish_errors_ = 0;
+  std::atomic<int64_t> publish_errors_{0};
 };
 
 }  // namespace liloc::transport

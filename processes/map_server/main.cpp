@@ -6,9 +6,11 @@
 
 #include <spdlog/spdlog.h>
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
+#include <functional>
 #include <mutex>
 #include <thread>
 
@@ -133,6 +135,58 @@ class MapSaver {
   std::thread thread_;
 };
 
+// Runs cloud replies one after another on its own thread.
+class ReplyWorker {
+ public:
+  using Reply = std::function<void(const SubmapQuery&, int64_t request_utime)>;
+  explicit ReplyWorker(Reply reply) : reply_(std::move(reply)), thread_([this] { run(); }) {}
+  ~ReplyWorker() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stopping_ = true;
+    }
+    wake_.notify_all();
+    thread_.join();
+  }
+
+  void submit(SubmapQuery query, int64_t request_utime) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      queue_.emplace_back(std::move(query), request_utime);
+    }
+    wake_.notify_all();
+  }
+
+ private:
+  void run() {
+    while (true) {
+      std::pair<SubmapQuery, int64_t> job;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
+        if (stopping_) {
+          return;
+        }
+        job = std::move(queue_.front());
+        queue_.pop_front();
+      }
+      try {
+        reply_(job.first, job.second);
+      } catch (const std::exception& e) {
+        spdlog::error("reply to {} request {}: {}", job.first.robot_id, job.first.request_id,
+                      e.what());
+      }
+    }
+  }
+
+  Reply reply_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<std::pair<SubmapQuery, int64_t>> queue_;
+  bool stopping_ = false;
+  std::thread thread_;
+};
+
 class MapServerProcess {
  public:
   MapServerProcess(const SystemConfig& config, storage::MapStore& store, MapData map)
@@ -148,13 +202,12 @@ class MapServerProcess {
     bus_.subscribe<liloc::submap_request_t>(
         config.channels.map_request,
         [this](const liloc::submap_request_t& msg, const transport::ReceiveInfo&) {
-          const Clock::time_point start = Clock::now();
-          const SubmapQuery query = bridge::from_msg(msg);
-          for (const SubmapReplyPart& part : service_.answer(query)) {
-            liloc::submap_t reply = bridge::to_msg(part, msg.header.utime);
-            bus_.publish(transport::robot_channel(query.robot_id, config_.channels.submap), reply);
+          SubmapQuery query = bridge::from_msg(msg);
+          if (query.include_clouds) {
+            replies_.submit(std::move(query), msg.header.utime);  // off this thread
+          } else {
+            reply(query, msg.header.utime);
           }
-          last_reply_ms_ = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
         });
     bus_.subscribe<liloc::map_update_t>(
         config.channels.map_update,
@@ -177,6 +230,7 @@ class MapServerProcess {
 
   void run() {
     const MapData& map = service_.map();
+    warm_cache(map);
     spdlog::info("serving map '{}' version {}: {} keyframes, {} submaps, on {}", map.map_id,
                  map.version, map.keyframes.size(), map.submaps.size(), config_.transport.url);
     Clock::time_point next_info = Clock::now();
@@ -196,11 +250,13 @@ class MapServerProcess {
         }
         if (done.version != 0) {
           disk_version_ = done.version;
+          std::lock_guard<std::mutex> lock(service_mutex_);
           service_.saved(done.version, done.keyframe_ids);
           spdlog::info("saved map version {}", done.version);
         }
       }
       if (Clock::now() >= next_info) {
+        std::lock_guard<std::mutex> lock(service_mutex_);
         service_.expire(now_us());
         publish_info();
         next_info =
@@ -212,6 +268,36 @@ class MapServerProcess {
   }
 
  private:
+  // Answers one request: the parts under the service lock, encoding and sending without.
+  void reply(const SubmapQuery& query, int64_t request_utime) {
+    const Clock::time_point start = Clock::now();
+    std::vector<SubmapReplyPart> parts;
+    {
+      std::lock_guard<std::mutex> lock(service_mutex_);
+      parts = service_.answer(query);
+    }
+    const std::string channel = transport::robot_channel(query.robot_id, config_.channels.submap);
+    for (const SubmapReplyPart& part : parts) {
+      liloc::submap_t message = bridge::to_msg(part, request_utime);
+      bus_.publish(channel, message);
+    }
+    last_reply_ms_ = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  }
+
+  // Loads keyframe clouds until the cache is three quarters full, so that the first
+  // requests are answered from memory; a map beyond the cache is served from disk.
+  void warm_cache(const MapData& map) {
+    const Clock::time_point start = Clock::now();
+    for (const MapKeyframe& kf : map.keyframes) {
+      if (cache_.bytes() * 4 >= cache_.max_bytes() * 3 || shutdown_requested()) {
+        break;
+      }
+      cache_.get(kf.id);
+    }
+    spdlog::info("cache warm: {} MB of clouds in {:.1f} s", cache_.bytes() / (1024 * 1024),
+                 std::chrono::duration<double>(Clock::now() - start).count());
+  }
+
   void publish_info() {
     liloc::map_info_t info = bridge::to_msg(service_.map(), service_.counters(), now_us());
     bus_.publish(config_.channels.map_info, info);
@@ -244,8 +330,13 @@ class MapServerProcess {
   transport::Transport bus_;
   int64_t disk_version_ = 0;
   int pending_saves_ = 0;
-  double last_reply_ms_ = 0.0;
+  std::atomic<double> last_reply_ms_{0.0};
   std::string last_message_;
+  // Guards service_: position queries are answered on the LCM thread, cloud replies
+  // (megabytes to encode and send) on the reply worker, so that they never hold up the
+  // small ones.
+  std::mutex service_mutex_;
+  ReplyWorker replies_{[this](const SubmapQuery& q, int64_t utime) { reply(q, utime); }};
 };
 }  // namespace
 

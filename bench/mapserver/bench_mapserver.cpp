@@ -1,0 +1,418 @@
+// bench_mapserver: many robots asking one liloc_map_server for submaps over loopback UDP
+// multicast, as in the field: every robot sends a position query (poses and bounds) at
+// the request rate while it drives along the map's path, and asks for a submap's clouds
+// when it enters that submap. Measured per map size (the map as given, and tiled N
+// times): reply latency from request to the last message of the reply, lost replies
+// (requests whose reply is incomplete 2 s after the run), and the server's memory.
+// Writes bench/results/mapserver.json with robots, requests_per_s, reply_ms_p50,
+// reply_ms_p99, lost_replies and server_rss_mb per run; map_ate_m comes from the
+// `liloc_map build --json` reports passed with --map-reports.
+
+#include <signal.h>
+#include <spdlog/spdlog.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "app/process_memory.hpp"
+#include "app/program.hpp"
+#include "bridge/map_conversions.hpp"
+#include "eval/json_writer.hpp"
+#include "eval/latency_stats.hpp"
+#include "map/submap_database.hpp"
+#include "storage/map_store.hpp"
+#include "transport/channels.hpp"
+#include "transport/transport.hpp"
+
+namespace {
+using namespace liloc;
+using Clock = std::chrono::steady_clock;
+namespace fs = std::filesystem;
+
+// The map repeated `copies` times side by side along x (ids renumbered), written to dir:
+// a bigger map of the same density.
+void write_tiled_map(const std::string& source_dir, const std::string& dir, int copies) {
+  storage::MapStore source(source_dir);
+  const MapData map = source.load();
+  double min_x = 1e18, max_x = -1e18;
+  for (const MapKeyframe& kf : map.keyframes) {
+    min_x = std::min(min_x, kf.T_map_body.translation().x());
+    max_x = std::max(max_x, kf.T_map_body.translation().x());
+  }
+  const double pitch_m = max_x - min_x + 200.0;  // clouds reach ~100 m beyond the path
+  const int64_t id_step = map.keyframes.back().id + 1;
+  MapData tiled;
+  tiled.map_id = map.map_id + "-x" + std::to_string(copies);
+  std::map<int64_t, PointCloud> clouds;
+  std::map<int64_t, std::vector<uint8_t>> descriptors;
+  for (int c = 0; c < copies; ++c) {
+    for (MapKeyframe kf : map.keyframes) {
+      clouds[kf.id + c * id_step] = source.load_cloud(kf.id);
+      descriptors[kf.id + c * id_step] = source.load_descriptor(kf.id);
+      kf.id += c * id_step;
+      kf.T_map_body.translation().x() += c * pitch_m;
+      tiled.keyframes.push_back(kf);
+    }
+    for (PoseGraphEdge e : map.edges) {
+      e.from += c * id_step;
+      e.to += c * id_step;
+      tiled.edges.push_back(e);
+    }
+  }
+  tiled.submaps = join_submaps(tiled.keyframes, SubmapConfig{}, 0);
+  storage::MapStore(dir).save(tiled, clouds, descriptors);
+}
+
+pid_t start_server(const std::string& server, const std::string& config, const std::string& map,
+                   const std::string& url) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::execl(server.c_str(), server.c_str(), "--config", config.c_str(), "--map", map.c_str(),
+            "--lcm-url", url.c_str(), "--log-level", "warn", static_cast<char*>(nullptr));
+    std::perror("exec liloc_map_server");
+    ::_exit(127);
+  }
+  if (pid < 0) {
+    throw std::runtime_error("fork failed");
+  }
+  return pid;
+}
+
+struct RobotResult {
+  std::vector<double> position_reply_ms;
+  std::vector<double> cloud_reply_ms;
+  int64_t requests = 0;
+  int64_t lost = 0;
+  int64_t bytes = 0;
+};
+
+// One robot: its own LCM instance, driving along the map's keyframe path from `start`.
+class Robot {
+ public:
+  Robot(const std::string& robot_id, const std::string& url,
+        const std::vector<Eigen::Vector3d>& path, size_t start)
+      : id_(robot_id), path_(path), index_(start) {
+    transport::TransportConfig config;
+    config.url = url;
+    bus_ = std::make_unique<transport::Transport>(config);
+    bus_->subscribe<liloc::submap_t>(
+        transport::robot_channel(id_, "SUBMAP"),
+        [this](const liloc::submap_t& msg, const transport::ReceiveInfo& info) {
+          on_reply(msg, info);
+        });
+  }
+
+  // Sends one request and waits for its reply, up to timeout: true once answered.
+  bool ping(double timeout_s) {
+    send(false, -1);
+    const Clock::time_point end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                     std::chrono::duration<double>(timeout_s));
+    while (Clock::now() < end && !pending_.empty()) {
+      bus_->handle(50);
+    }
+    const bool answered = pending_.empty();
+    pending_.clear();
+    result_ = {};
+    return answered;
+  }
+
+  void run(double rate_hz, double duration_s) {
+    const auto period =
+        std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate_hz));
+    const Clock::time_point end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                     std::chrono::duration<double>(duration_s));
+    Clock::time_point next = Clock::now();
+    while (next < end) {
+      // Entering a new submap: fetch its clouds (this tick's request), else where am I.
+      if (current_submap_ != fetched_submap_ && current_submap_ >= 0) {
+        send(true, current_submap_);
+        fetched_submap_ = current_submap_;
+      } else {
+        send(false, -1);
+      }
+      index_ = (index_ + 1) % path_.size();
+      next += period;
+      while (Clock::now() < next) {
+        const auto left =
+            std::chrono::duration_cast<std::chrono::milliseconds>(next - Clock::now());
+        bus_->handle(static_cast<int>(std::max<int64_t>(1, left.count())));
+      }
+    }
+    const Clock::time_point drain_end = Clock::now() + std::chrono::seconds(2);
+    while (Clock::now() < drain_end && !pending_.empty()) {
+      bus_->handle(50);
+    }
+    result_.lost = static_cast<int64_t>(pending_.size());
+  }
+
+  const RobotResult& result() const { return result_; }
+
+ private:
+  struct Pending {
+    Clock::time_point sent;
+    bool clouds = false;
+    int received = 0;
+  };
+
+  void send(bool clouds, int64_t submap_id) {
+    SubmapQuery q;
+    q.robot_id = id_;
+    q.request_id = ++request_id_;
+    q.by_id = clouds;
+    if (clouds) {
+      q.submap_ids = {submap_id};
+    }
+    q.position = path_[index_];
+    q.include_clouds = clouds;
+    pending_[q.request_id] = {Clock::now(), clouds, 0};
+    liloc::submap_request_t msg = bridge::to_msg(q, 0);
+    bus_->publish(transport::ChannelConfig{}.map_request, msg);
+    ++result_.requests;
+  }
+
+  void on_reply(const liloc::submap_t& msg, const transport::ReceiveInfo& info) {
+    const auto it = pending_.find(msg.request_id);
+    if (it == pending_.end()) {
+      return;
+    }
+    result_.bytes += info.bytes;
+    if (!it->second.clouds && msg.submap_id >= 0) {
+      current_submap_ = msg.submap_id;
+    }
+    if (++it->second.received == msg.reply_count) {
+      const double ms =
+          std::chrono::duration<double, std::milli>(Clock::now() - it->second.sent).count();
+      (it->second.clouds ? result_.cloud_reply_ms : result_.position_reply_ms).push_back(ms);
+      pending_.erase(it);
+    }
+  }
+
+  std::string id_;
+  std::vector<Eigen::Vector3d> path_;
+  size_t index_;
+  std::unique_ptr<transport::Transport> bus_;
+  std::map<int64_t, Pending> pending_;
+  int64_t request_id_ = 0;
+  int64_t current_submap_ = -1;
+  int64_t fetched_submap_ = -1;
+  RobotResult result_;
+};
+
+struct Run {
+  int map_copies = 1;
+  size_t keyframes = 0;
+  size_t submaps = 0;
+  int robots = 0;
+  double requests_per_s = 0.0;
+  eval::LatencyStats all, position, clouds;
+  int64_t lost = 0;
+  double mb_per_s = 0.0;
+  ProcessMemory server;
+};
+
+Run run_once(const std::string& server_path, const std::string& config, const std::string& map_dir,
+             int copies, const std::string& url, int robots, double rate_hz, double duration_s) {
+  storage::MapStore store(map_dir);
+  const MapData map = store.load();
+  std::vector<Eigen::Vector3d> path;
+  for (const MapKeyframe& kf : map.keyframes) {
+    path.push_back(kf.T_map_body.translation());
+  }
+  const pid_t server = start_server(server_path, config, map_dir, url);
+  std::vector<std::unique_ptr<Robot>> fleet;
+  for (int r = 0; r < robots; ++r) {
+    fleet.push_back(std::make_unique<Robot>("bench" + std::to_string(r), url, path,
+                                            path.size() * static_cast<size_t>(r) / robots));
+  }
+  // The server is up when it answers.
+  bool up = false;
+  for (int attempt = 0; attempt < 60 && !up; ++attempt) {
+    up = fleet.front()->ping(1.0);
+  }
+  if (!up) {
+    ::kill(server, SIGKILL);
+    ::waitpid(server, nullptr, 0);
+    throw std::runtime_error("liloc_map_server did not answer within 60 s on " + url);
+  }
+  std::vector<std::thread> threads;
+  const Clock::time_point start = Clock::now();
+  for (auto& robot : fleet) {
+    threads.emplace_back([&robot, rate_hz, duration_s] { robot->run(rate_hz, duration_s); });
+  }
+  for (std::thread& t : threads) {
+    t.join();
+  }
+  const double elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
+  Run run;
+  run.server = read_process_memory(std::to_string(server));
+  ::kill(server, SIGINT);
+  ::waitpid(server, nullptr, 0);
+
+  run.map_copies = copies;
+  run.keyframes = map.keyframes.size();
+  run.submaps = map.submaps.size();
+  run.robots = robots;
+  std::vector<double> all, position, clouds;
+  int64_t requests = 0, bytes = 0;
+  for (const auto& robot : fleet) {
+    const RobotResult& r = robot->result();
+    position.insert(position.end(), r.position_reply_ms.begin(), r.position_reply_ms.end());
+    clouds.insert(clouds.end(), r.cloud_reply_ms.begin(), r.cloud_reply_ms.end());
+    requests += r.requests;
+    bytes += r.bytes;
+    run.lost += r.lost;
+  }
+  all = position;
+  all.insert(all.end(), clouds.begin(), clouds.end());
+  run.requests_per_s = requests / elapsed_s;
+  run.mb_per_s = bytes / elapsed_s / 1e6;
+  const auto stats = [](const std::vector<double>& ms) {
+    return ms.empty() ? eval::LatencyStats{} : eval::compute_latency_stats(ms);
+  };
+  run.all = stats(all);
+  run.position = stats(position);
+  run.clouds = stats(clouds);
+  return run;
+}
+
+std::vector<std::string> split(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream s(text);
+  for (std::string item; std::getline(s, item, ',');) {
+    if (!item.empty()) {
+      out.push_back(item);
+    }
+  }
+  return out;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args;
+  std::string server_path = "build/bin/liloc_map_server";
+  std::string config_path = "config/liloc.yaml";
+  std::string scales_text = "1,10";
+  std::string scratch = "data/bench_mapserver";
+  std::string map_reports;
+  std::string json_path = "bench/results/mapserver.json";
+  std::string url = "udpm://239.255.76.67:7691?ttl=0&recv_buf_size=4194304";
+  int robots = 8;
+  double rate_hz = 10.0;
+  double duration_s = 20.0;
+  CommandLine cli("bench_mapserver",
+                  "Robots requesting submaps from liloc_map_server over loopback: latency, "
+                  "lost replies, server memory, for the map and a tiled bigger one.");
+  cli.add_positional("MAP_DIR", &args, "a map directory (liloc_map build)", 1);
+  cli.add_option("server", &server_path, "the liloc_map_server binary");
+  cli.add_option("config", &config_path, "system config for the server");
+  cli.add_option("scales", &scales_text, "map sizes to run, as copies of MAP_DIR");
+  cli.add_option("scratch", &scratch, "where tiled maps are written");
+  cli.add_option("robots", &robots, "concurrent robots");
+  cli.add_option("rate-hz", &rate_hz, "requests per robot per second");
+  cli.add_option("duration-s", &duration_s, "length of each run");
+  cli.add_option("lcm-url", &url, "LCM URL of the run (its own port)");
+  cli.add_option("map-reports", &map_reports,
+                 "comma list of `liloc_map build --json` reports (lidar=file) for map_ate_m");
+  cli.add_option("json", &json_path, "result file ('' for none)");
+  return run_program(cli, "bench_mapserver", argc, argv, [&]() -> int {
+    if (args.size() != 1) {
+      throw std::invalid_argument("expected MAP_DIR (see --help)");
+    }
+    std::vector<Run> runs;
+    for (const std::string& scale_text : split(scales_text)) {
+      const int copies = std::stoi(scale_text);
+      std::string map_dir = args[0];
+      if (copies > 1) {
+        map_dir = scratch + "/x" + std::to_string(copies);
+        fs::remove_all(map_dir);
+        fs::create_directories(map_dir);
+        spdlog::info("writing the map tiled {}x to {}", copies, map_dir);
+        write_tiled_map(args[0], map_dir, copies);
+      }
+      runs.push_back(
+          run_once(server_path, config_path, map_dir, copies, url, robots, rate_hz, duration_s));
+      const Run& r = runs.back();
+      spdlog::info("{}x: {} requests/s, p99 {:.2f} ms, lost {}", copies, r.requests_per_s,
+                   r.all.p99_ms, r.lost);
+    }
+
+    std::printf(
+        "| map | keyframes | submaps | robots | requests/s | reply ms p50 | p99 | max | "
+        "position p99 | clouds p99 | lost | MB/s | server RSS MB | server peak MB |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for (const Run& r : runs) {
+      std::printf(
+          "| %dx | %zu | %zu | %d | %.1f | %.2f | %.2f | %.2f | %.2f | %.2f | %lld | %.1f "
+          "| %.0f | %.0f |\n",
+          r.map_copies, r.keyframes, r.submaps, r.robots, r.requests_per_s, r.all.median_ms,
+          r.all.p99_ms, r.all.max_ms, r.position.p99_ms, r.clouds.p99_ms,
+          static_cast<long long>(r.lost), r.mb_per_s, r.server.rss_mb, r.server.peak_mb);
+    }
+    if (json_path.empty()) {
+      return 0;
+    }
+    eval::JsonWriter json;
+    json.begin_object().key("benchmark").string("mapserver").key("maps").begin_array();
+    for (const std::string& item : split(map_reports)) {
+      const size_t eq = item.find('=');
+      if (eq == std::string::npos) {
+        throw std::invalid_argument("--map-reports: expected lidar=file, got '" + item + "'");
+      }
+      std::ifstream in(item.substr(eq + 1));
+      std::stringstream text;
+      text << in.rdbuf();
+      const std::string report = text.str();
+      const size_t at = report.find("\"map_ate_m\": ");
+      if (!in || at == std::string::npos) {
+        throw std::invalid_argument("--map-reports: no map_ate_m in " + item.substr(eq + 1));
+      }
+      json.begin_object()
+          .key("lidar")
+          .string(item.substr(0, eq))
+          .key("map_ate_m")
+          .number(std::stod(report.substr(at + 13)))
+          .end_object();
+    }
+    json.end_array().key("runs").begin_array();
+    for (const Run& r : runs) {
+      json.begin_object()
+          .key("map_copies")
+          .integer(r.map_copies)
+          .key("keyframes")
+          .integer(static_cast<int64_t>(r.keyframes))
+          .key("robots")
+          .integer(r.robots)
+          .key("requests_per_s")
+          .number(r.requests_per_s)
+          .key("reply_ms_p50")
+          .number(r.all.median_ms)
+          .key("reply_ms_p99")
+          .number(r.all.p99_ms)
+          .key("reply_ms_max")
+          .number(r.all.max_ms)
+          .key("cloud_reply_ms_p99")
+          .number(r.clouds.p99_ms)
+          .key("lost_replies")
+          .integer(r.lost)
+          .key("server_rss_mb")
+          .number(r.server.rss_mb)
+          .key("server_peak_rss_mb")
+          .number(r.server.peak_mb)
+          .end_object();
+    }
+    json.end_array().end_object();
+    fs::create_directories(fs::path(json_path).parent_path());
+    std::ofstream(json_path) << json.str() << "\n";
+    return 0;
+  });
+}
