@@ -126,19 +126,6 @@ std::string format_length(double metres) {
   return buffer;
 }
 
-void draw_scale_bar(cv::Mat& canvas, const View& view, const TrajectoryPlotConfig& config) {
-  const double plot_width_px = config.width_px - 2.0 * config.margin_px;
-  const double length_m = nice_length(0.25 * plot_width_px / view.scale_px_per_m);
-  const int length_px = static_cast<int>(std::lround(length_m * view.scale_px_per_m));
-  const cv::Point left(config.margin_px, config.height_px - config.margin_px / 2);
-  const cv::Point right = left + cv::Point(length_px, 0);
-  cv::line(canvas, left, right, kTextColor, 2);
-  cv::line(canvas, left - cv::Point(0, 5), left + cv::Point(0, 5), kTextColor, 2);
-  cv::line(canvas, right - cv::Point(0, 5), right + cv::Point(0, 5), kTextColor, 2);
-  cv::putText(canvas, format_length(length_m), left + cv::Point(0, -10), kFont, kFontScale,
-              kTextColor, 1, cv::LINE_AA);
-}
-
 void draw_legend(cv::Mat& canvas, const std::vector<LegendEntry>& entries,
                  const TrajectoryPlotConfig& config) {
   constexpr int kRowPx = 22;
@@ -227,11 +214,24 @@ cv::Mat render_trajectory_plot(const TrajectoryPlotInput& input,
         {input.modes.empty() ? "estimate" : "estimate, other mode", kUnknownModeColor, 3});
   }
 
-  draw_scale_bar(canvas, view, config);
+  draw_scale_bar(canvas, {config.margin_px, config.height_px - config.margin_px / 2},
+                 config.width_px - 2.0 * config.margin_px, view.scale_px_per_m, kTextColor);
   draw_legend(canvas, legend, config);
   cv::putText(canvas, input.title, {config.margin_px / 2, kTitleHeightPx - 8}, kFont, kFontScale,
               kTextColor, 1, cv::LINE_AA);
   return canvas;
+}
+
+void draw_scale_bar(cv::Mat& canvas, cv::Point left, double plot_width_px, double px_per_m,
+                    const cv::Scalar& color) {
+  const double length_m = nice_length(0.25 * plot_width_px / px_per_m);
+  const int length_px = static_cast<int>(std::lround(length_m * px_per_m));
+  const cv::Point right = left + cv::Point(length_px, 0);
+  cv::line(canvas, left, right, color, 2);
+  cv::line(canvas, left - cv::Point(0, 5), left + cv::Point(0, 5), color, 2);
+  cv::line(canvas, right - cv::Point(0, 5), right + cv::Point(0, 5), color, 2);
+  cv::putText(canvas, format_length(length_m), left + cv::Point(0, -10), kFont, kFontScale, color,
+              1, cv::LINE_AA);
 }
 
 }  // namespace liloc::eval

@@ -45,4 +45,9 @@ struct TrajectoryPlotInput {
 cv::Mat render_trajectory_plot(const TrajectoryPlotInput& input,
                                const TrajectoryPlotConfig& config);
 
+// A scale bar of a round length (1, 2 or 5 x 10^k m, at most a quarter of the plot's
+// width), its left end at `left`, labelled in metres. Shared by every top-down image.
+void draw_scale_bar(cv::Mat& canvas, cv::Point left, double plot_width_px, double px_per_m,
+                    const cv::Scalar& color);
+
 }  // namespace liloc::eval

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "eval/trajectory_plot.hpp"
 #include "pointcloud/voxel_grid.hpp"
 
 namespace liloc::tools {
@@ -40,35 +41,6 @@ struct View {
             kTitleHeightPx + kMarginPx + max_cell_y - static_cast<int>(std::floor(y_m * px_per_m))};
   }
 };
-
-// 1, 2 or 5 times a power of ten, at most max_m.
-double nice_length(double max_m) {
-  const double power = std::pow(10.0, std::floor(std::log10(max_m)));
-  for (const double step : {5.0, 2.0, 1.0}) {
-    if (step * power <= max_m) {
-      return step * power;
-    }
-  }
-  return power;
-}
-
-std::string format_metres(double metres) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%g m", metres);
-  return text;
-}
-
-void draw_scale_bar(cv::Mat& canvas, double px_per_m) {
-  const double length_m = nice_length(0.25 * (canvas.cols - 2 * kMarginPx) / px_per_m);
-  const int length_px = static_cast<int>(std::lround(length_m * px_per_m));
-  const cv::Point left(kMarginPx, canvas.rows - kMarginPx / 2);
-  const cv::Point right = left + cv::Point(length_px, 0);
-  cv::line(canvas, left, right, kTextColor, 2);
-  cv::line(canvas, left - cv::Point(0, 5), left + cv::Point(0, 5), kTextColor, 2);
-  cv::line(canvas, right - cv::Point(0, 5), right + cv::Point(0, 5), kTextColor, 2);
-  cv::putText(canvas, format_metres(length_m), left + cv::Point(0, -10), kFont, kFontScale,
-              kTextColor, 1, cv::LINE_AA);
-}
 
 // Colour bar of the height range at the bottom right.
 void draw_height_legend(cv::Mat& canvas, float low_m, float high_m) {
@@ -239,7 +211,8 @@ cv::Mat MapRenderer::render(const MapData& map, const std::string& title) const 
   }
   legend.emplace_back("submap bounds (id)", kSubmapColor);
   draw_legend(canvas, legend);
-  draw_scale_bar(canvas, config_.px_per_m);
+  eval::draw_scale_bar(canvas, {kMarginPx, canvas.rows - kMarginPx / 2},
+                       canvas.cols - 2.0 * kMarginPx, config_.px_per_m, kTextColor);
   if (config_.height_colours && !cells_.empty()) {
     draw_height_legend(canvas, low_z_m, high_z_m);
   }
