@@ -2,6 +2,7 @@
 
 #include <random>
 
+#include "map/central_session_builder.hpp"
 #include "map/kd_tree.hpp"
 #include "map/map_service.hpp"
 #include "map/pose_graph_optimizer.hpp"
@@ -166,6 +167,44 @@ struct ServiceFixture {
         config);
   }
 };
+
+// A straight 59 m drive with a keyframe per metre, loops off: the keyframes keep their
+// odometry poses, consecutive ones are linked with odometry edges, Eq. 2 closes a submap
+// every 20 keyframes, and the clouds come out by keyframe id.
+TEST(CentralSessionBuilder, KeyframesEdgesSubmapsAndClouds) {
+  CentralSessionConfig config;
+  config.close_loops = false;
+  CentralSessionBuilder builder(config);
+  for (int i = 0; i < 60; ++i) {
+    Keyframe kf;
+    kf.utime_us = 1000000 * i;
+    kf.T_odom_body.translation() = Eigen::Vector3d(i, 0.0, 0.0);
+    kf.cloud_body.points.assign(static_cast<size_t>(i + 1), Eigen::Vector3f::UnitZ());
+    kf.cloud_body.intensities.assign(static_cast<size_t>(i + 1), 1.0f);
+    builder.add(kf);
+  }
+  std::map<int64_t, PointCloud> clouds;
+  CentralSessionReport report;
+  const MapData map = builder.build(&clouds, &report);
+  ASSERT_EQ(map.keyframes.size(), 60u);
+  EXPECT_EQ(report.keyframes, 60u);
+  EXPECT_EQ(report.loop_closures, 0u);
+  ASSERT_EQ(map.edges.size(), 59u);
+  for (const PoseGraphEdge& e : map.edges) {
+    EXPECT_EQ(e.kind, PoseGraphEdge::Kind::kOdometry);
+    EXPECT_EQ(e.to, e.from + 1);
+    EXPECT_NEAR(e.T_from_to.translation().x(), 1.0, 1e-12);
+  }
+  for (const MapKeyframe& kf : map.keyframes) {
+    EXPECT_EQ(kf.session, "A");
+    EXPECT_NEAR(kf.T_map_body.translation().x(), static_cast<double>(kf.id), 1e-12);
+    ASSERT_EQ(clouds.count(kf.id), 1u);
+    EXPECT_EQ(clouds.at(kf.id).size(), static_cast<size_t>(kf.id + 1));
+    EXPECT_GE(kf.submap_id, 0);
+  }
+  EXPECT_EQ(report.submaps, map.submaps.size());
+  EXPECT_EQ(map.submaps.size(), 3u);
+}
 
 TEST(MapService, AnswersByPositionAndById) {
   ServiceFixture f;

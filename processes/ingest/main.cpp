@@ -22,29 +22,13 @@
 #include "app/program.hpp"
 #include "bridge/sensor_stream.hpp"
 #include "config/yaml_config.hpp"
-#include "dataset/folder_dataset_reader.hpp"
-#include "dataset/kitti_odometry_reader.hpp"
-#include "dataset/nclt_reader.hpp"
+#include "dataset/dataset_factory.hpp"
 #include "dataset/tum_trajectory.hpp"
 #include "math/so3.hpp"
 
 namespace {
 using namespace liloc;
 using Clock = std::chrono::steady_clock;
-
-// The reader options of every format, from the "ingest" section of --config.
-struct IngestConfig {
-  dataset::KittiConfig kitti;
-  dataset::NcltConfig nclt;
-  dataset::FolderDatasetConfig folder;
-
-  template <class V>
-  void visit_fields(V& v) {
-    v("kitti", kitti);
-    v("nclt", nclt);
-    v("folder", folder);
-  }
-};
 
 struct IngestOptions {
   std::string format;
@@ -58,20 +42,6 @@ struct IngestOptions {
   int max_scans = 0;
   std::string config_path;
 };
-
-std::unique_ptr<dataset::SensorDatasetReader> open_reader(const IngestOptions& options,
-                                                          const IngestConfig& config) {
-  if (options.format == "kitti") {
-    const std::string sequence = options.sequence.empty() ? "00" : options.sequence;
-    return std::make_unique<dataset::KittiOdometryReader>(options.input, sequence, config.kitti);
-  }
-  if (options.format == "nclt") {
-    const std::string session =
-        options.sequence.empty() ? options.input : options.input + "/" + options.sequence;
-    return std::make_unique<dataset::NcltReader>(session, config.nclt);
-  }
-  return std::make_unique<dataset::FolderDatasetReader>(options.input, config.folder);
-}
 
 void log_setup(const dataset::SensorSetup& setup) {
   spdlog::info("sensor {}, {}, nominal sweep {:.3f} s", setup.sensor_model,
@@ -138,10 +108,12 @@ int run(const IngestOptions& options) {
     spdlog::error("--speed and --max-scans must be >= 0");
     return 2;
   }
-  const IngestConfig config = options.config_path.empty()
-                                  ? IngestConfig{}
-                                  : load_config<IngestConfig>(options.config_path, "ingest");
-  std::unique_ptr<dataset::SensorDatasetReader> reader = open_reader(options, config);
+  const dataset::DatasetReadersConfig config =
+      options.config_path.empty()
+          ? dataset::DatasetReadersConfig{}
+          : load_config<dataset::DatasetReadersConfig>(options.config_path, "ingest");
+  std::unique_ptr<dataset::SensorDatasetReader> reader =
+      dataset::open_dataset(options.format, options.input, options.sequence, config);
   const dataset::SensorSetup setup = reader->sensor_setup();
   log_setup(setup);
 

@@ -1,6 +1,8 @@
 // liloc_map: looks at, checks, exports and draws a map directory (docs/map_format.md).
 //
 //   liloc_map build LOG OUT_DIR [--ground-truth gt.tum]  a map from a recorded drive
+//   liloc_map build-from-poses DATASET OUT_DIR [--format kitti|folder] [--poses x.tum]
+//   liloc_map build-from-pcd MAP.pcd OUT_DIR [--cell-m 20] [--radius-m 30]
 //   liloc_map inspect DIR                          version, counts, points, bounds, disk use
 //   liloc_map validate DIR                         every check, every keyframe file's CRC
 //   liloc_map export DIR OUT.pcd [--voxel-m 0.2]   all clouds in the map frame, one PCD
@@ -312,6 +314,10 @@ struct Subcommand {
 
 const Subcommand kSubcommands[] = {
     {"build", "a map from a recorded drive (odometry, loops, submaps)", build_map},
+    {"build-from-poses", "a map from scans with known poses (KITTI, PCD folder)",
+     build_map_from_poses},
+    {"build-from-pcd", "a map from one global point cloud (grid pseudo-keyframes)",
+     build_map_from_pcd},
     {"inspect", "version, counts, points, bounds, disk use", inspect},
     {"validate", "check everything, exit 0 if intact", validate},
     {"export", "all clouds in the map frame as one PCD", export_cloud},
@@ -323,7 +329,7 @@ void print_usage(std::ostream& out) {
   out << "usage: liloc_map <command> ...   (liloc_map <command> --help)\n";
   for (const Subcommand& command : kSubcommands) {
     char line[128];
-    std::snprintf(line, sizeof(line), "  %-10s %s\n", command.name, command.summary);
+    std::snprintf(line, sizeof(line), "  %-17s %s\n", command.name, command.summary);
     out << line;
   }
 }

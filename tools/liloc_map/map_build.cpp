@@ -19,6 +19,13 @@
 #include "transport/transport.hpp"
 
 namespace liloc {
+
+void require_new_map_directory(const std::string& directory) {
+  if (storage::MapStore(directory).exists()) {
+    throw std::invalid_argument(directory + " already holds a map; choose a new directory");
+  }
+}
+
 namespace {
 
 Trajectory keyframe_trajectory(const std::vector<MapKeyframe>& keyframes) {
@@ -89,6 +96,21 @@ DriveResult run_odometry(const SystemConfig& config, const std::string& log_path
 
 }  // namespace
 
+MapData save_built_map(CentralSessionBuilder& builder, const SystemConfig& config,
+                       const std::string& directory, const std::string& map_id,
+                       CentralSessionReport* report) {
+  std::map<int64_t, PointCloud> clouds;
+  MapData map = builder.build(&clouds, report);
+  map.map_id = map_id;
+  std::map<int64_t, std::vector<uint8_t>> descriptors;
+  for (const MapKeyframe& kf : map.keyframes) {
+    descriptors[kf.id] = encode(
+        make_level_polar_descriptor(clouds.at(kf.id), kf.T_map_body.linear(), config.descriptor));
+  }
+  storage::MapStore(directory).save(map, clouds, descriptors);
+  return map;
+}
+
 int build_map(int argc, const char* const* argv) {
   std::vector<std::string> args;
   std::string config_path = "config/liloc.yaml";
@@ -112,10 +134,7 @@ int build_map(int argc, const char* const* argv) {
       throw std::invalid_argument("expected LOG OUT_DIR (see --help)");
     }
     const SystemConfig config = load_config<SystemConfig>(config_path);
-    storage::MapStore store(args[1]);
-    if (store.exists()) {
-      throw std::invalid_argument(args[1] + " already holds a map; choose a new directory");
-    }
+    require_new_map_directory(args[1]);
     std::optional<Trajectory> ground_truth;
     if (!ground_truth_path.empty()) {
       ground_truth = read_tum(ground_truth_path);  // fail early on a bad file
@@ -129,16 +148,8 @@ int build_map(int argc, const char* const* argv) {
     const double odometry_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-    std::map<int64_t, PointCloud> clouds;
     CentralSessionReport report;
-    MapData map = builder.build(&clouds, &report);
-    map.map_id = map_id;
-    std::map<int64_t, std::vector<uint8_t>> descriptors;
-    for (const MapKeyframe& kf : map.keyframes) {
-      descriptors[kf.id] = encode(
-          make_level_polar_descriptor(clouds.at(kf.id), kf.T_map_body.linear(), config.descriptor));
-    }
-    store.save(map, clouds, descriptors);
+    MapData map = save_built_map(builder, config, args[1], map_id, &report);
     const double total_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 

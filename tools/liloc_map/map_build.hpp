@@ -1,8 +1,24 @@
 #pragma once
-// liloc_map build LOG OUT_DIR: the central session from a recorded drive.
+// Making map directories: from a recorded drive (liloc_map build), from scans with known
+// poses (build-from-poses) and from one global point cloud (build-from-pcd).
+
+#include <string>
+
+#include "map/central_session_builder.hpp"
+#include "system/system_config.hpp"
 
 namespace liloc {
 
 int build_map(int argc, const char* const* argv);
+int build_map_from_poses(int argc, const char* const* argv);
+int build_map_from_pcd(int argc, const char* const* argv);
+
+// Throws std::invalid_argument if the directory already holds a map: never overwritten.
+void require_new_map_directory(const std::string& directory);
+
+// Optimizes, cuts into submaps, computes the keyframe descriptors and saves version 1.
+MapData save_built_map(CentralSessionBuilder& builder, const SystemConfig& config,
+                       const std::string& directory, const std::string& map_id,
+                       CentralSessionReport* report);
 
 }  // namespace liloc
