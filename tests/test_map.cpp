@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <set>
+#include <tuple>
 
 #include "map/central_session_builder.hpp"
 #include "map/kd_tree.hpp"
@@ -242,6 +244,7 @@ TEST(MapService, ChunksBigSubmapsIntoWholeKeyframes) {
   ServiceFixture f;
   MapServiceConfig config;
   config.max_chunk_points = 4500;  // 4 keyframes of 1000 points per chunk
+  config.reply_voxel_m = 0.0;      // full keyframe clouds
   MapService s = f.service(config);
   SubmapQuery q;
   q.position = Eigen::Vector3d(5, 0, 0);
@@ -276,6 +279,42 @@ MapUpdatePart update_part(const std::string& robot, int64_t update_id, int chunk
     p.keyframes.push_back(kf);
   }
   return p;
+}
+
+// Overlapping keyframes: a reply sends each 0.3 m map voxel once, every point in its own
+// keyframe's frame, and a repeated request is served from the deduplicated cache.
+TEST(MapService, SendsEachMapVoxelOnceAndCachesIt) {
+  ServiceFixture f;
+  MapService s = f.service();
+  SubmapQuery q;
+  q.by_id = true;
+  q.submap_ids = {0};
+  const auto parts = s.answer(q);
+  std::set<std::tuple<int, int, int>> voxels;
+  size_t points = 0;
+  for (const SubmapReplyPart& part : parts) {
+    ASSERT_EQ(part.keyframes.size(), part.clouds.size());
+    for (size_t k = 0; k < part.keyframes.size(); ++k) {
+      for (const Eigen::Vector3f& p : part.clouds[k]->points) {
+        const Eigen::Vector3f q_map = (part.keyframes[k].T_map_body.cast<float>() * p);
+        const Eigen::Vector3i v = (q_map / 0.3f).array().floor().cast<int>();
+        EXPECT_TRUE(voxels.insert({v.x(), v.y(), v.z()}).second) << "a voxel sent twice";
+        ++points;
+      }
+    }
+  }
+  // n keyframes one metre apart along x, each with points 0 .. 9.99 m ahead of it: the
+  // voxels from x = 0 to n - 1 + 9.99 m, against n * 1000 points in the keyframe clouds.
+  size_t n = 0;
+  for (const SubmapReplyPart& part : parts) {
+    n += part.keyframes.size();
+  }
+  ASSERT_GE(n, 10u);
+  EXPECT_EQ(points, static_cast<size_t>(std::floor((n - 1 + 9.99) / 0.3)) + 1);
+  EXPECT_LT(points * 100, n * 1000);
+  const int loads = f.cloud_loads;
+  s.answer(q);
+  EXPECT_EQ(f.cloud_loads, loads);
 }
 
 TEST(MapService, MergesACompleteUpdateIntoNewSubmaps) {

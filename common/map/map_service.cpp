@@ -4,13 +4,19 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "pointcloud/voxel_grid.hpp"
+#include "pointcloud/voxel_index_table.hpp"
+
 namespace liloc {
 
 void MapServiceConfig::validate() const {
   submaps.validate();
   if (max_submaps_per_reply < 1 || max_chunk_points < 1 || max_update_keyframes < 1 ||
-      max_update_points < 1 || update_timeout_s <= 0) {
+      max_update_points < 1 || update_timeout_s <= 0 || reply_cache_submaps < 1) {
     throw std::invalid_argument("limits and timeout must be positive");
+  }
+  if (!(reply_voxel_m >= 0.0)) {
+    throw std::invalid_argument("reply_voxel_m must be >= 0");
   }
 }
 
@@ -19,12 +25,14 @@ MapService::MapService(MapData map, CloudSource clouds, const MapServiceConfig& 
   config_.validate();
 }
 
-std::shared_ptr<const PointCloud> MapService::cloud(int64_t keyframe_id) {
-  const auto merged = merged_clouds_.find(keyframe_id);
-  return merged != merged_clouds_.end() ? merged->second : cloud_source_(keyframe_id);
+std::vector<SubmapReplyPart> MapService::answer(const SubmapQuery& query) {
+  ReplyPlan reply = plan(query);
+  std::vector<SubmapReplyPart> parts = complete(reply);
+  remember(reply);
+  return parts;
 }
 
-std::vector<SubmapReplyPart> MapService::answer(const SubmapQuery& query) {
+MapService::ReplyPlan MapService::plan(const SubmapQuery& query) {
   ++counters_.requests;
   const size_t limit = static_cast<size_t>(
       query.max_submaps > 0 ? std::min(query.max_submaps, config_.max_submaps_per_reply)
@@ -46,49 +54,77 @@ std::vector<SubmapReplyPart> MapService::answer(const SubmapQuery& query) {
       }
     }
   }
-  return reply_for(query, ids);
+  counters_.empty_replies += ids.empty() ? 1 : 0;
+
+  ReplyPlan reply;
+  reply.query = query;
+  reply.map_version = map_.version;
+  reply.generation = generation_;
+  reply.reply_voxel_m = config_.reply_voxel_m;
+  reply.max_chunk_points = config_.max_chunk_points;
+  for (const int64_t id : ids) {
+    ReplyPlan::Item item;
+    item.submap = *database_.submap(id);
+    for (const int64_t kf_id : item.submap.keyframe_ids) {
+      item.keyframes.push_back(*database_.keyframe(kf_id));
+    }
+    if (query.include_clouds) {
+      const auto cached = reply_clouds_.find(id);
+      if (cached != reply_clouds_.end()) {
+        item.clouds = cached->second;
+      } else {
+        // Merged clouds not yet saved live here; the others come from the cloud source.
+        for (const int64_t kf_id : item.submap.keyframe_ids) {
+          const auto merged = merged_clouds_.find(kf_id);
+          item.sources.push_back(merged != merged_clouds_.end() ? merged->second : nullptr);
+        }
+      }
+    }
+    reply.items.push_back(std::move(item));
+  }
+  return reply;
 }
 
-std::vector<SubmapReplyPart> MapService::reply_for(const SubmapQuery& query,
-                                                   const std::vector<int64_t>& ids) {
-  std::vector<SubmapReplyPart> parts;
+std::vector<SubmapReplyPart> MapService::complete(ReplyPlan& reply) const {
+  const SubmapQuery& query = reply.query;
   const auto base = [&]() {
     SubmapReplyPart p;
     p.robot_id = query.robot_id;
     p.request_id = query.request_id;
-    p.map_version = map_.version;
+    p.map_version = reply.map_version;
     return p;
   };
-  if (ids.empty()) {
-    ++counters_.empty_replies;
+  std::vector<SubmapReplyPart> parts;
+  if (reply.items.empty()) {
     SubmapReplyPart p = base();
     p.reply_count = 1;
     parts.push_back(std::move(p));
     return parts;
   }
-  for (const int64_t id : ids) {
-    const Submap& submap = *database_.submap(id);
+  for (ReplyPlan::Item& item : reply.items) {
+    if (query.include_clouds && item.clouds.empty()) {
+      item.clouds = reply_clouds(item, reply.reply_voxel_m);
+      item.computed = true;
+    }
     // Chunks of whole keyframes, each under max_chunk_points.
     std::vector<SubmapReplyPart> chunks;
     SubmapReplyPart chunk = base();
-    chunk.submap = submap;
+    chunk.submap = item.submap;
     int64_t points = 0;
-    for (const int64_t kf_id : submap.keyframe_ids) {
-      const MapKeyframe* kf = database_.keyframe(kf_id);
-      std::shared_ptr<const PointCloud> c;
+    for (size_t k = 0; k < item.keyframes.size(); ++k) {
       if (query.include_clouds) {
-        c = cloud(kf_id);
+        const std::shared_ptr<const PointCloud>& c = item.clouds[k];
         if (!chunk.keyframes.empty() &&
-            points + static_cast<int64_t>(c->size()) > config_.max_chunk_points) {
+            points + static_cast<int64_t>(c->size()) > reply.max_chunk_points) {
           chunks.push_back(std::move(chunk));
           chunk = base();
-          chunk.submap = submap;
+          chunk.submap = item.submap;
           points = 0;
         }
         points += static_cast<int64_t>(c->size());
-        chunk.clouds.push_back(std::move(c));
+        chunk.clouds.push_back(c);
       }
-      chunk.keyframes.push_back(*kf);
+      chunk.keyframes.push_back(item.keyframes[k]);
     }
     chunks.push_back(std::move(chunk));
     for (size_t i = 0; i < chunks.size(); ++i) {
@@ -102,6 +138,49 @@ std::vector<SubmapReplyPart> MapService::reply_for(const SubmapQuery& query,
     parts[i].reply_count = static_cast<int>(parts.size());
   }
   return parts;
+}
+
+std::vector<std::shared_ptr<const PointCloud>> MapService::reply_clouds(
+    const ReplyPlan::Item& item, double reply_voxel_m) const {
+  std::vector<std::shared_ptr<const PointCloud>> out;
+  out.reserve(item.keyframes.size());
+  const float voxel_m = static_cast<float>(reply_voxel_m);
+  VoxelIndexTable seen(1 << 16);
+  for (size_t k = 0; k < item.keyframes.size(); ++k) {
+    std::shared_ptr<const PointCloud> full =
+        item.sources[k] ? item.sources[k] : cloud_source_(item.keyframes[k].id);
+    if (voxel_m <= 0.0f) {
+      out.push_back(std::move(full));
+      continue;
+    }
+    const Eigen::Affine3f T_map_body(item.keyframes[k].T_map_body.cast<float>());
+    auto kept = std::make_shared<PointCloud>();
+    for (size_t i = 0; i < full->size(); ++i) {
+      if (seen.insert(voxel_key(voxel_index(T_map_body * full->points[i], voxel_m))).second) {
+        kept->points.push_back(full->points[i]);
+        kept->intensities.push_back(full->intensities[i]);
+      }
+    }
+    out.push_back(std::move(kept));
+  }
+  return out;
+}
+
+void MapService::remember(const ReplyPlan& reply) {
+  if (reply.generation != generation_) {
+    return;  // the map changed meanwhile: what was computed may be stale
+  }
+  for (const ReplyPlan::Item& item : reply.items) {
+    if (!item.computed || reply_clouds_.count(item.submap.id) > 0) {
+      continue;
+    }
+    if (static_cast<int>(reply_clouds_order_.size()) >= config_.reply_cache_submaps) {
+      reply_clouds_.erase(reply_clouds_order_.front());
+      reply_clouds_order_.pop_front();
+    }
+    reply_clouds_order_.push_back(item.submap.id);
+    reply_clouds_[item.submap.id] = item.clouds;
+  }
 }
 
 std::optional<std::string> MapService::validate(const MapUpdatePart& part) const {
@@ -217,6 +296,9 @@ UpdateOutcome MapService::merge(const std::string& robot_id, PendingUpdate& upda
   map_.submaps.insert(map_.submaps.end(), outcome.new_submaps.begin(), outcome.new_submaps.end());
   database_ = SubmapDatabase(map_);
   ++counters_.updates_merged;
+  reply_clouds_.clear();  // a merge may re-cut submaps: recompute what replies send
+  reply_clouds_order_.clear();
+  ++generation_;
   counters_.keyframes_merged += static_cast<int64_t>(added.size());
   outcome.status = UpdateOutcome::Status::kMerged;
   outcome.new_keyframes = std::move(added);

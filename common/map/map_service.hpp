@@ -6,6 +6,7 @@
 // converts messages to and from these types and saves the map.
 
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -25,6 +26,11 @@ struct MapServiceConfig {
   // Keyframe clouds per reply message, in points (16 bytes each on the wire): a submap
   // beyond this is sent in several chunks of whole keyframes.
   int max_chunk_points = 150000;
+  // A submap's keyframes overlap (1 m apart, each seeing ~100 m): a reply sends each map
+  // voxel of this size once, with the first keyframe of the submap that holds a point
+  // in it (points stay in their keyframe's frame). 0 sends every keyframe's full cloud.
+  double reply_voxel_m = 0.3;
+  int reply_cache_submaps = 64;             // deduplicated submap clouds kept for the next requests
   std::vector<std::string> allowed_robots;  // updates from other robots are refused; empty: any
   int max_update_keyframes = 1000;
   int64_t max_update_points = 20000000;
@@ -35,6 +41,8 @@ struct MapServiceConfig {
   void visit_fields(V& v) {
     v("max_submaps_per_reply", max_submaps_per_reply);
     v("max_chunk_points", max_chunk_points);
+    v("reply_voxel_m", reply_voxel_m);
+    v("reply_cache_submaps", reply_cache_submaps);
     v("allowed_robots", allowed_robots);
     v("max_update_keyframes", max_update_keyframes);
     v("max_update_points", max_update_points);
@@ -115,6 +123,30 @@ class MapService {
 
   std::vector<SubmapReplyPart> answer(const SubmapQuery& query);
 
+  // answer() in three steps, for a server that answers from several threads under one
+  // lock: plan() with the lock held (cheap: ids, keyframes, cached clouds), complete()
+  // without it (loads clouds through the cloud source, which must then be thread-safe,
+  // and leaves out what other keyframes of the submap already cover), remember() with
+  // the lock again (keeps those clouds for the next request).
+  struct ReplyPlan {
+    struct Item {
+      Submap submap;
+      std::vector<MapKeyframe> keyframes;                      // the submap's, in order
+      std::vector<std::shared_ptr<const PointCloud>> clouds;   // what the reply sends
+      std::vector<std::shared_ptr<const PointCloud>> sources;  // merged clouds, else null
+      bool computed = false;
+    };
+    SubmapQuery query;
+    int64_t map_version = 0;
+    int64_t generation = 0;  // of the service's map when planned
+    double reply_voxel_m = 0.0;
+    int max_chunk_points = 0;
+    std::vector<Item> items;
+  };
+  ReplyPlan plan(const SubmapQuery& query);
+  std::vector<SubmapReplyPart> complete(ReplyPlan& plan) const;
+  void remember(const ReplyPlan& plan);
+
   // Buffers a part of an update; once all parts of it arrived and it is valid, merges it
   // into the map (a new version). Malformed parts or updates are rejected with a reason.
   UpdateOutcome receive(MapUpdatePart part, int64_t now_us);
@@ -140,8 +172,10 @@ class MapService {
   };
   std::optional<std::string> validate(const MapUpdatePart& part) const;
   UpdateOutcome merge(const std::string& robot_id, PendingUpdate& update);
-  std::vector<SubmapReplyPart> reply_for(const SubmapQuery& query, const std::vector<int64_t>& ids);
-  std::shared_ptr<const PointCloud> cloud(int64_t keyframe_id);
+  // The clouds a reply sends for a submap, one per keyframe in its order (see
+  // MapServiceConfig::reply_voxel_m).
+  std::vector<std::shared_ptr<const PointCloud>> reply_clouds(const ReplyPlan::Item& item,
+                                                              double reply_voxel_m) const;
 
   MapData map_;
   CloudSource cloud_source_;
@@ -152,6 +186,9 @@ class MapService {
   std::set<std::pair<std::string, int64_t>> finished_;  // merged or rejected: repeats ignored
   std::map<int64_t, std::shared_ptr<const PointCloud>> merged_clouds_;  // until saved
   std::map<int64_t, PointCloud> unsaved_clouds_;
+  std::map<int64_t, std::vector<std::shared_ptr<const PointCloud>>> reply_clouds_;
+  std::deque<int64_t> reply_clouds_order_;  // oldest first
+  int64_t generation_ = 0;                  // +1 on every change of the map
 };
 
 }  // namespace liloc

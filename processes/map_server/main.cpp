@@ -268,13 +268,19 @@ class MapServerProcess {
   }
 
  private:
-  // Answers one request: the parts under the service lock, encoding and sending without.
+  // Answers one request: planned under the service lock; clouds gathered, encoded and
+  // sent without it, so that other requests and updates go on meanwhile.
   void reply(const SubmapQuery& query, int64_t request_utime) {
     const Clock::time_point start = Clock::now();
-    std::vector<SubmapReplyPart> parts;
+    MapService::ReplyPlan plan;
     {
       std::lock_guard<std::mutex> lock(service_mutex_);
-      parts = service_.answer(query);
+      plan = service_.plan(query);
+    }
+    const std::vector<SubmapReplyPart> parts = service_.complete(plan);
+    {
+      std::lock_guard<std::mutex> lock(service_mutex_);
+      service_.remember(plan);
     }
     const std::string channel = transport::robot_channel(query.robot_id, config_.channels.submap);
     for (const SubmapReplyPart& part : parts) {
