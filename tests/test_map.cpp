@@ -244,7 +244,6 @@ TEST(MapService, ChunksBigSubmapsIntoWholeKeyframes) {
   ServiceFixture f;
   MapServiceConfig config;
   config.max_chunk_points = 4500;  // 4 keyframes of 1000 points per chunk
-  config.reply_voxel_m = 0.0;      // full keyframe clouds
   MapService s = f.service(config);
   SubmapQuery q;
   q.position = Eigen::Vector3d(5, 0, 0);
@@ -285,7 +284,9 @@ MapUpdatePart update_part(const std::string& robot, int64_t update_id, int chunk
 // keyframe's frame, and a repeated request is served from the deduplicated cache.
 TEST(MapService, SendsEachMapVoxelOnceAndCachesIt) {
   ServiceFixture f;
-  MapService s = f.service();
+  MapServiceConfig config;
+  config.reply_voxel_m = 0.3;
+  MapService s = f.service(config);
   SubmapQuery q;
   q.by_id = true;
   q.submap_ids = {0};
