@@ -37,6 +37,17 @@ function(liloc_executable name)
   target_link_libraries(${name}_exe PRIVATE ${ARG_DEPS} liloc_warnings)
 endfunction()
 
+# The workplace's read-only real test data (../shared/data next to the checkout); set
+# LILOC_SHARED_DATA_DIR when the checkout lives elsewhere. Tests that need it fail, naming
+# the file, if it is missing.
+if(NOT LILOC_SHARED_DATA_DIR)
+  set(LILOC_SHARED_DATA_DIR "${PROJECT_SOURCE_DIR}/../shared/data")
+  if(NOT EXISTS "${LILOC_SHARED_DATA_DIR}" AND EXISTS "/work/shared/data")
+    set(LILOC_SHARED_DATA_DIR "/work/shared/data")
+  endif()
+endif()
+set(LILOC_SHARED_DATA_DIR "${LILOC_SHARED_DATA_DIR}" CACHE PATH "real test data (../shared/data)")
+
 # liloc_test(<module> DEPS ...): tests/test_<module>.cpp as one gtest binary, registered
 # with ctest. Called from the module's own CMakeLists.txt, next to the library it tests.
 function(liloc_test module)
@@ -48,7 +59,7 @@ function(liloc_test module)
   target_link_libraries(test_${module} PRIVATE ${ARG_DEPS} GTest::gtest_main liloc_warnings)
   target_compile_definitions(test_${module} PRIVATE
                              LILOC_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
-                             LILOC_SHARED_DATA_DIR="${PROJECT_SOURCE_DIR}/../shared/data")
+                             LILOC_SHARED_DATA_DIR="${LILOC_SHARED_DATA_DIR}")
   set_target_properties(test_${module} PROPERTIES RUNTIME_OUTPUT_DIRECTORY
                                                   ${PROJECT_BINARY_DIR}/tests)
   gtest_discover_tests(test_${module} DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT 600)
