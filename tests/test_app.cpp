@@ -1,10 +1,17 @@
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <thread>
 #include <vector>
 
 #include "app/command_line.hpp"
 #include "app/process_memory.hpp"
 #include "app/program.hpp"
+#include "app/serial_worker.hpp"
 
 namespace liloc {
 namespace {
@@ -92,6 +99,59 @@ TEST(Program, ExitCodesReportOutcome) {
   EXPECT_EQ(run_program(throwing, "prog", 3, ok_argv,
                         []() -> int { throw std::runtime_error("map directory is corrupt"); }),
             1);
+}
+
+TEST(SplitList, ItemsInOrderWithoutEmptyOnes) {
+  EXPECT_EQ(split_list("vlp16,hdl32"), (std::vector<std::string>{"vlp16", "hdl32"}));
+  EXPECT_EQ(split_list("A,,B,"), (std::vector<std::string>{"A", "B"}));
+  EXPECT_TRUE(split_list("").empty());
+  EXPECT_EQ(split_list("1:10", ':'), (std::vector<std::string>{"1", "10"}));
+}
+
+// Jobs run in order on another thread; a throwing job does not stop the worker; on
+// destruction the queued jobs are finished or dropped as asked.
+TEST(SerialWorker, RunsJobsInOrderAndFinishesOrDropsTheQueue) {
+  std::vector<int> done;
+  std::mutex done_mutex;
+  std::thread::id worker_thread;
+  {
+    SerialWorker<int> worker(
+        [&](int& job) {
+          if (job < 0) {
+            throw std::runtime_error("bad job");
+          }
+          std::this_thread::sleep_for(std::chrono::milliseconds(2));
+          std::lock_guard<std::mutex> lock(done_mutex);
+          worker_thread = std::this_thread::get_id();
+          done.push_back(job);
+        },
+        SerialWorker<int>::OnStop::kFinishQueued);
+    for (int i = 0; i < 20; ++i) {
+      worker.submit(i == 5 ? -1 : i);
+    }
+  }
+  std::vector<int> expected;
+  for (int i = 0; i < 20; ++i) {
+    if (i != 5) {
+      expected.push_back(i);
+    }
+  }
+  EXPECT_EQ(done, expected);
+  EXPECT_NE(worker_thread, std::this_thread::get_id());
+
+  std::atomic<int> ran{0};
+  {
+    SerialWorker<int> worker(
+        [&](int&) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(20));
+          ++ran;
+        },
+        SerialWorker<int>::OnStop::kDropQueued);
+    for (int i = 0; i < 50; ++i) {
+      worker.submit(i);
+    }
+  }
+  EXPECT_LT(ran.load(), 50);
 }
 
 TEST(ProcessMemory, GrowsWithAllocationsAndIsZeroForNoProcess) {

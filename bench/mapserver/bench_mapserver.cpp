@@ -285,16 +285,6 @@ Run run_once(const std::string& server_path, const std::string& config, const st
   return run;
 }
 
-std::vector<std::string> split(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream s(text);
-  for (std::string item; std::getline(s, item, ',');) {
-    if (!item.empty()) {
-      out.push_back(item);
-    }
-  }
-  return out;
-}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -329,7 +319,7 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("expected MAP_DIR (see --help)");
     }
     std::vector<Run> runs;
-    for (const std::string& scale_text : split(scales_text)) {
+    for (const std::string& scale_text : split_list(scales_text)) {
       const int copies = std::stoi(scale_text);
       std::string map_dir = args[0];
       if (copies > 1) {
@@ -363,7 +353,7 @@ int main(int argc, char** argv) {
     }
     eval::JsonWriter json;
     json.begin_object().key("benchmark").string("mapserver").key("maps").begin_array();
-    for (const std::string& item : split(map_reports)) {
+    for (const std::string& item : split_list(map_reports)) {
       const size_t eq = item.find('=');
       if (eq == std::string::npos) {
         throw std::invalid_argument("--map-reports: expected lidar=file, got '" + item + "'");

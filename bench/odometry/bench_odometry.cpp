@@ -8,7 +8,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 
 #include "app/process_memory.hpp"
@@ -24,15 +23,6 @@
 
 namespace {
 using namespace liloc;
-
-std::vector<std::string> split(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream s(text);
-  for (std::string item; std::getline(s, item, ',');) {
-    out.push_back(item);
-  }
-  return out;
-}
 
 struct Run {
   std::string world, lidar, session;
@@ -177,16 +167,17 @@ int main(int argc, char** argv) {
   cli.add_flag("clean-imu", &clean_imu, "simulate a noise- and bias-free IMU (diagnosis)");
   cli.add_option("trace", &trace, "print every N-th estimate against ground truth (0: none)");
   return run_program(cli, "bench_odometry", argc, argv, [&]() -> int {
-    const std::vector<std::string> models = lidars == "all" ? sim::lidar_models() : split(lidars);
+    const std::vector<std::string> models =
+        lidars == "all" ? sim::lidar_models() : split_list(lidars);
     std::vector<Run> runs;
     std::printf(
         "| world | lidar | session | imu | length (m) | ATE (m) | RPE (%%) | RPE (deg/100m) | "
         "ms median | ms p99 | ms max | RSS 1/4 (MB) | RSS end (MB) | peak RSS (MB) | "
         "map pts | degen | |ba err| | |bg err| | stages ms (pre/prop/reg/map/kf) |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-    for (const std::string& world : split(worlds)) {
+    for (const std::string& world : split_list(worlds)) {
       for (const std::string& session :
-           world == "campus" ? split(sessions) : std::vector<std::string>{"A"}) {
+           world == "campus" ? split_list(sessions) : std::vector<std::string>{"A"}) {
         for (const std::string& model : models) {
           const Run r = run_session(world, model, session, !lidar_only, length_scale, trace,
                                     clean_imu, config_path);

@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 #include "app/program.hpp"
 #include "eval/json_writer.hpp"
@@ -21,14 +20,6 @@ struct Row {
   tools::SessionOutput out;
 };
 
-std::vector<std::string> split(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream s(text);
-  for (std::string item; std::getline(s, item, ',');) {
-    out.push_back(item);
-  }
-  return out;
-}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -48,20 +39,21 @@ int main(int argc, char** argv) {
   cli.add_option("threads", &threads, "ray-casting threads");
   cli.add_flag("keep", &keep, "keep the generated sessions");
   return run_program(cli, "bench_sim", argc, argv, [&]() -> int {
-    const std::vector<std::string> models = lidars == "all" ? sim::lidar_models() : split(lidars);
+    const std::vector<std::string> models =
+        lidars == "all" ? sim::lidar_models() : split_list(lidars);
     std::vector<Row> rows;
     std::printf(
         "| world | lidar | session | length (m) | duration (s) | sweeps | points/sweep | "
         "log (MB) | MB per km | wall (s) | x real time |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
-    for (const std::string& kind : split(worlds)) {
+    for (const std::string& kind : split_list(worlds)) {
       sim::SimulationConfig config;
       config.world.kind = kind;
       const sim::GeneratedWorld base = sim::generate_world(config.world);
       sim::World changed = base.world;
       sim::apply_day_changes(changed, config.world.seed + 1, config.changes);
       const std::vector<std::string> names =
-          kind == "campus" ? split(sessions) : std::vector<std::string>{"A"};
+          kind == "campus" ? split_list(sessions) : std::vector<std::string>{"A"};
       for (size_t si = 0; si < names.size(); ++si) {
         const std::string& name = names[si];
         const uint64_t seed = sim::hash_combine(static_cast<uint64_t>(config.world.seed),

@@ -7,6 +7,9 @@
 
 namespace liloc {
 
+// The items of a list option ("vlp16,hdl32"), in order; empty items are dropped.
+std::vector<std::string> split_list(const std::string& text, char separator = ',');
+
 class CommandLine {
  public:
   CommandLine(std::string program, std::string summary);

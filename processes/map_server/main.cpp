@@ -8,17 +8,16 @@
 
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <deque>
 #include <functional>
 #include <mutex>
-#include <thread>
 
 #include "app/program.hpp"
+#include "app/serial_worker.hpp"
 #include "bridge/map_conversions.hpp"
 #include "bridge/status_report.hpp"
 #include "config/yaml_config.hpp"
-#include "descriptor/polar_descriptor.hpp"
+#include "map/keyframe_descriptors.hpp"
 #include "storage/cloud_cache.hpp"
 #include "storage/map_error.hpp"
 #include "storage/map_store.hpp"
@@ -52,24 +51,9 @@ class MapSaver {
       : store_(store),
         version_on_disk_(version_on_disk),
         descriptor_(descriptor),
-        keep_(keep_versions),
-        thread_([this] { run(); }) {}
-  ~MapSaver() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stopping_ = true;
-    }
-    wake_.notify_all();
-    thread_.join();  // finishes the queued saves first: nothing merged is lost on exit
-  }
+        keep_(keep_versions) {}
 
-  void submit(Job job) {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      jobs_.push_back(std::move(job));
-    }
-    wake_.notify_all();
-  }
+  void submit(Job job) { worker_.submit(std::move(job)); }
 
   std::vector<Done> take_done() {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -79,47 +63,31 @@ class MapSaver {
   }
 
  private:
-  void run() {
-    while (true) {
-      Job job;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [this] { return stopping_ || !jobs_.empty(); });
-        if (jobs_.empty()) {
-          return;
-        }
-        job = std::move(jobs_.front());
-        jobs_.pop_front();
+  void save(Job& job) {
+    // Clouds of a failed save go with the next one, which includes their keyframes.
+    job.clouds.insert(unsaved_.begin(), unsaved_.end());
+    unsaved_.clear();
+    job.map.version = version_on_disk_;
+    Done done;
+    try {
+      const std::map<int64_t, std::vector<uint8_t>> descriptors =
+          encode_keyframe_descriptors(job.map.keyframes, job.clouds, descriptor_);
+      for (const auto& [id, descriptor] : descriptors) {
+        done.keyframe_ids.push_back(id);
       }
-      // Clouds of a failed save go with the next one, which includes their keyframes.
-      job.clouds.insert(unsaved_.begin(), unsaved_.end());
-      unsaved_.clear();
-      job.map.version = version_on_disk_;
-      Done done;
-      try {
-        std::map<int64_t, std::vector<uint8_t>> descriptors;
-        for (const MapKeyframe& kf : job.map.keyframes) {
-          const auto cloud = job.clouds.find(kf.id);
-          if (cloud != job.clouds.end()) {
-            descriptors[kf.id] = encode(
-                make_level_polar_descriptor(cloud->second, kf.T_map_body.linear(), descriptor_));
-            done.keyframe_ids.push_back(kf.id);
-          }
-        }
-        store_.save(job.map, job.clouds, descriptors);
-        version_on_disk_ = job.map.version;
-        done.version = version_on_disk_;
-        store_.prune(keep_);
-      } catch (const std::exception& e) {
-        done.error = e.what();
-        if (done.version == 0) {
-          unsaved_ = std::move(job.clouds);
-          done.keyframe_ids.clear();
-        }
+      store_.save(job.map, job.clouds, descriptors);
+      version_on_disk_ = job.map.version;
+      done.version = version_on_disk_;
+      store_.prune(keep_);
+    } catch (const std::exception& e) {
+      done.error = e.what();
+      if (done.version == 0) {
+        unsaved_ = std::move(job.clouds);
+        done.keyframe_ids.clear();
       }
-      std::lock_guard<std::mutex> lock(mutex_);
-      done_.push_back(std::move(done));
     }
+    std::lock_guard<std::mutex> lock(mutex_);
+    done_.push_back(std::move(done));
   }
 
   storage::MapStore& store_;
@@ -127,64 +95,11 @@ class MapSaver {
   std::map<int64_t, PointCloud> unsaved_;
   PolarDescriptorConfig descriptor_;
   int keep_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::deque<Job> jobs_;
+  std::mutex mutex_;  // guards done_
   std::deque<Done> done_;
-  bool stopping_ = false;
-  std::thread thread_;
-};
-
-// Runs cloud replies one after another on its own thread.
-class ReplyWorker {
- public:
-  using Reply = std::function<void(const SubmapQuery&, int64_t request_utime)>;
-  explicit ReplyWorker(Reply reply) : reply_(std::move(reply)), thread_([this] { run(); }) {}
-  ~ReplyWorker() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stopping_ = true;
-    }
-    wake_.notify_all();
-    thread_.join();
-  }
-
-  void submit(SubmapQuery query, int64_t request_utime) {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      queue_.emplace_back(std::move(query), request_utime);
-    }
-    wake_.notify_all();
-  }
-
- private:
-  void run() {
-    while (true) {
-      std::pair<SubmapQuery, int64_t> job;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
-        if (stopping_) {
-          return;
-        }
-        job = std::move(queue_.front());
-        queue_.pop_front();
-      }
-      try {
-        reply_(job.first, job.second);
-      } catch (const std::exception& e) {
-        spdlog::error("reply to {} request {}: {}", job.first.robot_id, job.first.request_id,
-                      e.what());
-      }
-    }
-  }
-
-  Reply reply_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::deque<std::pair<SubmapQuery, int64_t>> queue_;
-  bool stopping_ = false;
-  std::thread thread_;
+  // Last: destroyed first, finishing the queued saves: nothing merged is lost on exit.
+  SerialWorker<Job> worker_{[this](Job& job) { save(job); },
+                            SerialWorker<Job>::OnStop::kFinishQueued};
 };
 
 class MapServerProcess {
@@ -204,7 +119,7 @@ class MapServerProcess {
         [this](const liloc::submap_request_t& msg, const transport::ReceiveInfo&) {
           SubmapQuery query = bridge::from_msg(msg);
           if (query.include_clouds) {
-            replies_.submit(std::move(query), msg.header.utime);  // off this thread
+            replies_.submit({std::move(query), msg.header.utime});  // off this thread
           } else {
             reply(query, msg.header.utime);
           }
@@ -342,7 +257,20 @@ class MapServerProcess {
   // (megabytes to encode and send) on the reply worker, so that they never hold up the
   // small ones.
   std::mutex service_mutex_;
-  ReplyWorker replies_{[this](const SubmapQuery& q, int64_t utime) { reply(q, utime); }};
+  struct CloudRequest {
+    SubmapQuery query;
+    int64_t request_utime = 0;
+  };
+  SerialWorker<CloudRequest> replies_{[this](CloudRequest& r) {
+                                        try {
+                                          reply(r.query, r.request_utime);
+                                        } catch (const std::exception& e) {
+                                          spdlog::error("reply to {} request {}: {}",
+                                                        r.query.robot_id, r.query.request_id,
+                                                        e.what());
+                                        }
+                                      },
+                                      SerialWorker<CloudRequest>::OnStop::kDropQueued};
 };
 }  // namespace
 

@@ -11,9 +11,10 @@
 #include "bridge/lcm_conversions.hpp"
 #include "config/yaml_config.hpp"
 #include "dataset/tum_trajectory.hpp"
-#include "descriptor/polar_descriptor.hpp"
+#include "eval/json_writer.hpp"
 #include "eval/trajectory_metrics.hpp"
 #include "map/central_session_builder.hpp"
+#include "map/keyframe_descriptors.hpp"
 #include "storage/map_store.hpp"
 #include "system/system_config.hpp"
 #include "transport/transport.hpp"
@@ -102,13 +103,24 @@ MapData save_built_map(CentralSessionBuilder& builder, const SystemConfig& confi
   std::map<int64_t, PointCloud> clouds;
   MapData map = builder.build(&clouds, report);
   map.map_id = map_id;
-  std::map<int64_t, std::vector<uint8_t>> descriptors;
-  for (const MapKeyframe& kf : map.keyframes) {
-    descriptors[kf.id] = encode(
-        make_level_polar_descriptor(clouds.at(kf.id), kf.T_map_body.linear(), config.descriptor));
-  }
-  storage::MapStore(directory).save(map, clouds, descriptors);
+  storage::MapStore(directory).save(
+      map, clouds, encode_keyframe_descriptors(map.keyframes, clouds, config.descriptor));
+  print_map_summary(directory, map, *report);
   return map;
+}
+
+CentralSessionConfig central_session_config(const SystemConfig& config) {
+  CentralSessionConfig out = config.map_builder;
+  out.loops.descriptor = config.descriptor;  // one descriptor for the whole system
+  return out;
+}
+
+void print_map_summary(const std::string& directory, const MapData& map,
+                       const CentralSessionReport& report) {
+  std::printf("map             %s (version %lld)\n", directory.c_str(),
+              static_cast<long long>(map.version));
+  std::printf("keyframes       %zu in %zu submaps\n", report.keyframes, report.submaps);
+  std::printf("loop closures   %zu\n", report.loop_closures);
 }
 
 int build_map(int argc, const char* const* argv) {
@@ -141,7 +153,7 @@ int build_map(int argc, const char* const* argv) {
     }
 
     const auto start = std::chrono::steady_clock::now();
-    CentralSessionConfig builder_config = config.map_builder;
+    CentralSessionConfig builder_config = central_session_config(config);
     builder_config.close_loops = builder_config.close_loops && !no_loops;
     CentralSessionBuilder builder(builder_config);
     const DriveResult drive = run_odometry(config, args[0], robot_id, builder);
@@ -153,12 +165,8 @@ int build_map(int argc, const char* const* argv) {
     const double total_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-    std::printf("map             %s (version %lld)\n", args[1].c_str(),
-                static_cast<long long>(map.version));
     std::printf("sweeps          %lld (odometry %.1f s, total %.1f s)\n",
                 static_cast<long long>(drive.scans), odometry_s, total_s);
-    std::printf("keyframes       %zu in %zu submaps\n", report.keyframes, report.submaps);
-    std::printf("loop closures   %zu\n", report.loop_closures);
     double ate_odometry = -1.0, ate_map = -1.0;
     if (ground_truth) {
       eval::EvalConfig eval_config;
@@ -172,11 +180,25 @@ int build_map(int argc, const char* const* argv) {
                   ate_odometry, ate_map);
     }
     if (!json_path.empty()) {
+      eval::JsonWriter json;
+      json.begin_object()
+          .key("map")
+          .string(args[1])
+          .key("keyframes")
+          .integer(static_cast<int64_t>(report.keyframes))
+          .key("submaps")
+          .integer(static_cast<int64_t>(report.submaps))
+          .key("loop_closures")
+          .integer(static_cast<int64_t>(report.loop_closures))
+          .key("odometry_ate_m")
+          .number(ate_odometry)
+          .key("map_ate_m")
+          .number(ate_map)
+          .key("build_s")
+          .number(total_s)
+          .end_object();
       std::ofstream out(json_path);
-      out << "{\"map\": \"" << args[1] << "\", \"keyframes\": " << report.keyframes
-          << ", \"submaps\": " << report.submaps << ", \"loop_closures\": " << report.loop_closures
-          << ", \"odometry_ate_m\": " << ate_odometry << ", \"map_ate_m\": " << ate_map
-          << ", \"build_s\": " << total_s << "}\n";
+      out << json.str() << "\n";
       if (!out) {
         throw std::runtime_error("cannot write " + json_path);
       }

@@ -16,9 +16,16 @@ int build_map_from_pcd(int argc, const char* const* argv);
 // Throws std::invalid_argument if the directory already holds a map: never overwritten.
 void require_new_map_directory(const std::string& directory);
 
-// Optimizes, cuts into submaps, computes the keyframe descriptors and saves version 1.
+// The builder's config from the system's: its loop closure uses the system's descriptor.
+CentralSessionConfig central_session_config(const SystemConfig& config);
+
+// Optimizes, cuts into submaps, computes the keyframe descriptors, saves version 1 and
+// prints the summary.
 MapData save_built_map(CentralSessionBuilder& builder, const SystemConfig& config,
                        const std::string& directory, const std::string& map_id,
                        CentralSessionReport* report);
+
+void print_map_summary(const std::string& directory, const MapData& map,
+                       const CentralSessionReport& report);
 
 }  // namespace liloc

@@ -22,13 +22,6 @@ namespace {
 
 constexpr const char* kProgram = "liloc_map";
 
-void print_report(const std::string& directory, const MapData& map,
-                  const CentralSessionReport& report) {
-  std::printf("map             %s (version %lld)\n", directory.c_str(),
-              static_cast<long long>(map.version));
-  std::printf("keyframes       %zu in %zu submaps\n", report.keyframes, report.submaps);
-}
-
 // The builder's view of one keyframe: pose and body-frame cloud.
 Keyframe make_keyframe(int64_t id, int64_t utime_us, const Eigen::Isometry3d& T_map_body,
                        PointCloud cloud_body) {
@@ -42,7 +35,7 @@ Keyframe make_keyframe(int64_t id, int64_t utime_us, const Eigen::Isometry3d& T_
 
 // Known poses need no loop closing; consecutive keyframes are still linked by edges.
 CentralSessionBuilder known_pose_builder(const SystemConfig& config, const std::string& session) {
-  CentralSessionConfig builder_config = config.map_builder;
+  CentralSessionConfig builder_config = central_session_config(config);
   builder_config.close_loops = false;
   builder_config.session = session;
   return CentralSessionBuilder(builder_config);
@@ -125,8 +118,7 @@ int build_map_from_poses(int argc, const char* const* argv) {
                                   " scans, none within the trajectory's time span)");
     }
     CentralSessionReport report;
-    const MapData map = save_built_map(builder, config, args[1], map_id, &report);
-    print_report(args[1], map, report);
+    save_built_map(builder, config, args[1], map_id, &report);
     std::printf("scans           %lld read, %lld without a pose\n", static_cast<long long>(scans),
                 static_cast<long long>(without_pose));
     return 0;
@@ -235,8 +227,7 @@ int build_map_from_pcd(int argc, const char* const* argv) {
                                   " points (lower --min-points or raise --cell-m)");
     }
     CentralSessionReport report;
-    const MapData map = save_built_map(builder, config, args[1], map_id, &report);
-    print_report(args[1], map, report);
+    save_built_map(builder, config, args[1], map_id, &report);
     std::printf("points          %zu after %.2f m voxels, %zu grid cells of %.1f m\n", all.size(),
                 config.odometry.keyframe_voxel_m, cells.size(), cell_m);
     return 0;

@@ -6,7 +6,6 @@
 #include <spdlog/spdlog.h>
 
 #include <cstdio>
-#include <sstream>
 
 #include "app/program.hpp"
 #include "config/yaml_config.hpp"
@@ -17,16 +16,6 @@
 namespace {
 using namespace liloc;
 
-std::vector<std::string> split(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream s(text);
-  for (std::string item; std::getline(s, item, ',');) {
-    if (!item.empty()) {
-      out.push_back(item);
-    }
-  }
-  return out;
-}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -71,7 +60,8 @@ int main(int argc, char** argv) {
       std::printf("sim:\n%s\n", dump_config(config).c_str());
       return 0;
     }
-    const std::vector<std::string> models = lidars == "all" ? sim::lidar_models() : split(lidars);
+    const std::vector<std::string> models =
+        lidars == "all" ? sim::lidar_models() : split_list(lidars);
     for (const std::string& m : models) {
       sim::lidar_spec(m);  // fail before simulating anything
     }
@@ -91,7 +81,7 @@ int main(int argc, char** argv) {
     std::printf("%-9s %-7s %-3s %9s %9s %7s %10s %9s %9s\n", "world", "lidar", "ses", "length_m",
                 "duration", "sweeps", "points", "log_MB", "wall_s");
     int session_index = 0;
-    for (const std::string& name : split(sessions)) {
+    for (const std::string& name : split_list(sessions)) {
       const uint64_t session_seed = sim::hash_combine(static_cast<uint64_t>(config.world.seed),
                                                       static_cast<uint64_t>(name[0]));
       const sim::SessionPlan plan =
