@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "bridge/lcm_conversions.hpp"
+#include "bridge/map_conversions.hpp"
 #include "bridge/pcl_conversions.hpp"
 #include "bridge/sensor_stream.hpp"
 #include "math/so3.hpp"
@@ -105,6 +106,64 @@ TEST(LcmConversions, ImuBatchRoundTripDropsNonFiniteSamples) {
   ASSERT_EQ(back.size(), 2u);
   EXPECT_EQ(back[1].utime_us, 1002);
   EXPECT_EQ(back[1].accel_mps2.z(), 11.8);
+}
+
+TEST(MapConversions, SubmapRequestRoundTripKeepsTheReplyUrl) {
+  SubmapQuery q;
+  q.robot_id = "r3";
+  q.request_id = 42;
+  q.by_id = true;
+  q.submap_ids = {4, 9};
+  q.max_submaps = 2;
+  q.include_clouds = true;
+  q.reply_url = "udpm://239.255.76.67:7700?ttl=0";
+  const SubmapQuery back = from_msg(to_msg(q, 1000));
+  EXPECT_EQ(back.robot_id, "r3");
+  EXPECT_EQ(back.request_id, 42);
+  EXPECT_TRUE(back.by_id);
+  EXPECT_EQ(back.submap_ids, q.submap_ids);
+  EXPECT_EQ(back.max_submaps, 2);
+  EXPECT_TRUE(back.include_clouds);
+  EXPECT_EQ(back.reply_url, q.reply_url);
+  q.by_id = false;
+  q.position.x() = std::nan("");
+  EXPECT_THROW(from_msg(to_msg(q, 1000)), std::invalid_argument);
+}
+
+// A reply part carries whole keyframes with their clouds; the offsets split them again.
+TEST(MapConversions, SubmapReplyRoundTripSplitsTheCloudsByKeyframe) {
+  SubmapReplyPart part;
+  part.robot_id = "r1";
+  part.request_id = 7;
+  part.reply_count = 1;
+  part.submap = Submap{};
+  part.submap->id = 3;
+  part.submap->keyframe_ids = {10, 11};
+  for (int k = 0; k < 2; ++k) {
+    MapKeyframe kf;
+    kf.id = 10 + k;
+    kf.T_map_body.translation() = Eigen::Vector3d(k, 2, 0);
+    part.keyframes.push_back(kf);
+    auto cloud = std::make_shared<PointCloud>();
+    for (int i = 0; i < 3 + k; ++i) {
+      cloud->push_back(Eigen::Vector3f(i, k, 1), static_cast<float>(i));
+    }
+    part.clouds.push_back(cloud);
+  }
+  liloc::submap_t msg = to_msg(part, 5);
+  const SubmapReplyPart back = from_msg(msg);
+  ASSERT_TRUE(back.submap);
+  EXPECT_EQ(back.submap->id, 3);
+  ASSERT_EQ(back.keyframes.size(), 2u);
+  ASSERT_EQ(back.clouds.size(), 2u);
+  EXPECT_EQ(back.keyframes[1].id, 11);
+  EXPECT_TRUE(back.keyframes[1].T_map_body.isApprox(part.keyframes[1].T_map_body));
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_EQ(back.clouds[k]->points, part.clouds[k]->points);
+    EXPECT_EQ(back.clouds[k]->intensities, part.clouds[k]->intensities);
+  }
+  msg.cloud_offsets[1] = 99;  // beyond the cloud
+  EXPECT_THROW(from_msg(msg), std::invalid_argument);
 }
 
 TEST(PclConversions, RoundTripAndInvalidPoints) {

@@ -159,15 +159,52 @@ struct ServiceFixture {
       clouds[kf.id] = c;
     }
   }
-  MapService service(MapServiceConfig config = {}) {
-    return MapService(
-        map,
-        [this](int64_t id) {
-          ++cloud_loads;
-          return clouds.at(id);
-        },
-        config);
+  KeyframeCloudSource source() {
+    return [this](int64_t id) {
+      ++cloud_loads;
+      return clouds.at(id);
+    };
   }
+  // Full keyframe clouds unless a test asks for deduplication.
+  static MapServiceConfig full_clouds() {
+    MapServiceConfig config;
+    config.reply_voxel_m = 0.0;
+    return config;
+  }
+  MapService service(MapServiceConfig config = full_clouds(),
+                     const SubmapCloudStore* store = nullptr) {
+    return MapService(map, source(), config, store);
+  }
+};
+
+// A SubmapCloudStore in memory, as the server's files are on disk.
+class MemoryCloudStore final : public SubmapCloudStore {
+ public:
+  explicit MemoryCloudStore(double voxel_m) : voxel_m_(voxel_m) {}
+  double voxel_m() const override { return voxel_m_; }
+  bool contains(const Submap& submap, const std::vector<MapKeyframe>& keyframes) const override {
+    return stored_.count(key(submap, keyframes)) > 0;
+  }
+  std::optional<SubmapClouds> load(const Submap& submap,
+                                   const std::vector<MapKeyframe>& keyframes) const override {
+    const auto it = stored_.find(key(submap, keyframes));
+    return it == stored_.end() ? std::nullopt : std::optional<SubmapClouds>(it->second);
+  }
+  void save(const Submap& submap, const std::vector<MapKeyframe>& keyframes,
+            const SubmapClouds& clouds) const override {
+    stored_[key(submap, keyframes)] = clouds;
+    ++saves;
+  }
+  mutable int saves = 0;
+
+ private:
+  // The submap and where its first keyframe is: enough to tell the fixtures' versions apart.
+  static std::pair<int64_t, double> key(const Submap& submap,
+                                        const std::vector<MapKeyframe>& keyframes) {
+    return {submap.id, keyframes.front().T_map_body.translation().x()};
+  }
+  double voxel_m_;
+  mutable std::map<std::pair<int64_t, double>, SubmapClouds> stored_;
 };
 
 // A straight 59 m drive with a keyframe per metre, loops off: the keyframes keep their
@@ -242,7 +279,7 @@ TEST(MapService, AnswersByPositionAndById) {
 
 TEST(MapService, ChunksBigSubmapsIntoWholeKeyframes) {
   ServiceFixture f;
-  MapServiceConfig config;
+  MapServiceConfig config = ServiceFixture::full_clouds();
   config.max_chunk_points = 4500;  // 4 keyframes of 1000 points per chunk
   MapService s = f.service(config);
   SubmapQuery q;
@@ -316,6 +353,45 @@ TEST(MapService, SendsEachMapVoxelOnceAndCachesIt) {
   const int loads = f.cloud_loads;
   s.answer(q);
   EXPECT_EQ(f.cloud_loads, loads);
+}
+
+// Deduplicated clouds are computed once per submap and kept in the store: a second
+// service (the server restarted) answers from the store without loading keyframe clouds;
+// fill_submap_cloud_store computes what the store lacks, and stops when asked.
+TEST(MapService, KeepsDeduplicatedCloudsInTheStoreAcrossServices) {
+  ServiceFixture f;
+  MapServiceConfig config;
+  config.reply_voxel_m = 0.3;
+  MemoryCloudStore store(0.3);
+  SubmapQuery q;
+  q.by_id = true;
+  q.submap_ids = {1};
+  std::vector<SubmapReplyPart> first;
+  {
+    MapService s = f.service(config, &store);
+    first = s.answer(q);
+  }
+  EXPECT_EQ(store.saves, 1);
+  const int loads = f.cloud_loads;
+  EXPECT_EQ(loads, 20);
+  MapService again = f.service(config, &store);
+  const auto second = again.answer(q);
+  EXPECT_EQ(f.cloud_loads, loads);
+  ASSERT_EQ(first.size(), second.size());
+  for (size_t i = 0; i < first.size(); ++i) {
+    ASSERT_EQ(first[i].clouds.size(), second[i].clouds.size());
+    for (size_t k = 0; k < first[i].clouds.size(); ++k) {
+      EXPECT_EQ(first[i].clouds[k]->points, second[i].clouds[k]->points);
+    }
+  }
+  EXPECT_EQ(again.store_errors(), 0);
+
+  EXPECT_EQ(fill_submap_cloud_store(f.map, f.source(), store, [&] { return store.saves >= 2; }), 1);
+  EXPECT_EQ(fill_submap_cloud_store(f.map, f.source(), store), 1);
+  EXPECT_EQ(fill_submap_cloud_store(f.map, f.source(), store), 0);
+  EXPECT_EQ(store.saves, 3);
+  MemoryCloudStore other_voxel(0.5);
+  EXPECT_THROW(f.service(config, &other_voxel), std::invalid_argument);
 }
 
 TEST(MapService, MergesACompleteUpdateIntoNewSubmaps) {

@@ -30,6 +30,7 @@
 #include "storage/map_store.hpp"
 #include "storage/map_text_files.hpp"
 #include "storage/pcd_codec.hpp"
+#include "storage/submap_cloud_files.hpp"
 
 namespace liloc::storage {
 namespace {
@@ -615,6 +616,80 @@ TEST(MapStore, FlippedByteInACloudIsFoundByLoadCloudAndVerifyClouds) {
   }
   EXPECT_TRUE(same_cloud(store.load_cloud(5), map.clouds.at(5)));
   EXPECT_THROW(store.load_cloud(10), MapError);  // not in the map
+}
+
+// ---------------------------------------------------------------------------------------
+// SubmapCloudFiles: derived reply clouds next to the map
+
+// What a test submap's keyframes look like to the store (ids and poses from the map).
+std::vector<MapKeyframe> keyframes_of(const MapData& data, const Submap& submap) {
+  std::vector<MapKeyframe> out;
+  for (const int64_t id : submap.keyframe_ids) {
+    out.push_back(data.keyframes[static_cast<size_t>(id)]);
+  }
+  return out;
+}
+
+SubmapClouds clouds_of(const TestMap& map, const Submap& submap) {
+  SubmapClouds out;
+  for (const int64_t id : submap.keyframe_ids) {
+    out.push_back(std::make_shared<const PointCloud>(map.clouds.at(id)));
+  }
+  return out;
+}
+
+TEST(SubmapCloudFiles, RoundTripsAndNeverServesAChangedOrDamagedSubmap) {
+  ScratchDir dir("submap_clouds");
+  TestMap map = make_map(20, 50);
+  const Submap& submap = map.data.submaps[1];
+  std::vector<MapKeyframe> keyframes = keyframes_of(map.data, submap);
+  const SubmapCloudFiles files(dir.path("map"), 0.3);
+  EXPECT_FALSE(files.contains(submap, keyframes));
+  EXPECT_FALSE(files.load(submap, keyframes));
+  files.save(submap, keyframes, clouds_of(map, submap));
+  ASSERT_TRUE(files.contains(submap, keyframes));
+  const std::optional<SubmapClouds> loaded = files.load(submap, keyframes);
+  ASSERT_TRUE(loaded);
+  ASSERT_EQ(loaded->size(), keyframes.size());
+  for (size_t k = 0; k < keyframes.size(); ++k) {
+    EXPECT_TRUE(same_cloud(*(*loaded)[k], map.clouds.at(keyframes[k].id)));
+  }
+  // Another voxel size, or a keyframe moved by a micrometre: not these clouds.
+  EXPECT_FALSE(SubmapCloudFiles(dir.path("map"), 0.2).load(submap, keyframes));
+  std::vector<MapKeyframe> moved = keyframes;
+  moved[3].T_map_body.translation().x() += 1e-6;
+  EXPECT_FALSE(files.contains(submap, moved));
+  EXPECT_EQ(files.damaged(), 0);
+  EXPECT_THROW(files.save(submap, moved, {}), std::invalid_argument);
+
+  const std::string path = dir.path("map/" + files.relative_path(submap, keyframes));
+  flip_byte(path, fs::file_size(path) / 2);
+  EXPECT_FALSE(files.load(submap, keyframes));
+  EXPECT_EQ(files.damaged(), 1);
+  files.save(submap, keyframes, clouds_of(map, submap));  // recomputed: replaces it
+  EXPECT_TRUE(files.load(submap, keyframes));
+  fs::resize_file(path, fs::file_size(path) - 6);
+  EXPECT_FALSE(files.load(submap, keyframes));
+  EXPECT_EQ(files.damaged(), 2);
+}
+
+TEST(SubmapCloudFiles, PruneRemovesWhatTheCurrentMapDoesNotUse) {
+  ScratchDir dir("submap_clouds_prune");
+  TestMap map = make_map(30, 20);
+  const SubmapCloudFiles files(dir.path("map"), 0.3);
+  EXPECT_EQ(files.prune(map.data), 0);  // nothing there yet
+  for (const Submap& submap : map.data.submaps) {
+    files.save(submap, keyframes_of(map.data, submap), clouds_of(map, submap));
+  }
+  const std::string stray = dir.path("map/derived/submap_clouds/000001-x.bin.123-0.tmp");
+  std::ofstream(stray) << "partial";
+  // Submap 2 re-optimized: its old file is stale.
+  MapData changed = map.data;
+  changed.keyframes[25].T_map_body.translation().z() += 0.5;
+  EXPECT_EQ(files.prune(changed), 2);
+  EXPECT_FALSE(fs::exists(stray));
+  EXPECT_TRUE(files.contains(map.data.submaps[0], keyframes_of(map.data, map.data.submaps[0])));
+  EXPECT_FALSE(files.contains(map.data.submaps[2], keyframes_of(map.data, map.data.submaps[2])));
 }
 
 // ---------------------------------------------------------------------------------------

@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <sstream>
 #include <string>
@@ -27,10 +28,13 @@
 #include "app/process_memory.hpp"
 #include "app/program.hpp"
 #include "bridge/map_conversions.hpp"
+#include "config/yaml_config.hpp"
 #include "eval/json_writer.hpp"
 #include "eval/latency_stats.hpp"
 #include "map/submap_database.hpp"
 #include "storage/map_store.hpp"
+#include "storage/submap_cloud_files.hpp"
+#include "system/system_config.hpp"
 #include "transport/channels.hpp"
 #include "transport/transport.hpp"
 
@@ -73,6 +77,45 @@ void write_tiled_map(const std::string& source_dir, const std::string& dir, int 
   storage::MapStore(dir).save(tiled, clouds, descriptors);
 }
 
+// The submaps' reply clouds on disk before the server starts, as `liloc_map build` leaves
+// them, so that the runs measure serving, not the one-time deduplication.
+void prepare_reply_clouds(const std::string& map_dir, const std::string& config_path) {
+  const double voxel_m = load_config<SystemConfig>(config_path).map_server.service.reply_voxel_m;
+  if (voxel_m <= 0.0) {
+    return;
+  }
+  const Clock::time_point start = Clock::now();
+  storage::MapStore store(map_dir);
+  const int computed = fill_submap_cloud_store(
+      store.load(),
+      [&store](int64_t id) { return std::make_shared<const PointCloud>(store.load_cloud(id)); },
+      storage::SubmapCloudFiles(map_dir, voxel_m));
+  spdlog::info("{}: {} submap reply clouds computed in {:.1f} s", map_dir, computed,
+               std::chrono::duration<double>(Clock::now() - start).count());
+}
+
+// Runs `work` in a child process and waits for it. Writing a tiled map holds all its clouds
+// (gigabytes) at once; in this process the heap it leaves behind slowed the robots' reply
+// decoding measurably (10x map: reply p99 37-44 ms right after writing, 24 ms when the same
+// map was served by a fresh process).
+void in_child_process(const std::function<void()>& work) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    try {
+      work();
+    } catch (const std::exception& e) {
+      spdlog::error("{}", e.what());
+      ::_exit(1);
+    }
+    ::_exit(0);
+  }
+  int status = 0;
+  if (pid < 0 || ::waitpid(pid, &status, 0) != pid || !WIFEXITED(status) ||
+      WEXITSTATUS(status) != 0) {
+    throw std::runtime_error("preparing the map in a child process failed");
+  }
+}
+
 pid_t start_server(const std::string& server, const std::string& config, const std::string& map,
                    const std::string& url) {
   const pid_t pid = ::fork();
@@ -99,13 +142,18 @@ struct RobotResult {
 // One robot: its own LCM instance, driving along the map's keyframe path from `start`.
 class Robot {
  public:
-  Robot(const std::string& robot_id, const std::string& url,
+  // reply_url: the robot's own group for replies (empty: replies come on the bus).
+  Robot(const std::string& robot_id, const std::string& url, const std::string& reply_url,
         const std::vector<Eigen::Vector3d>& path, size_t start)
-      : id_(robot_id), path_(path), index_(start) {
+      : id_(robot_id), reply_url_(reply_url), path_(path), index_(start) {
     transport::TransportConfig config;
     config.url = url;
     bus_ = std::make_unique<transport::Transport>(config);
-    bus_->subscribe<liloc::submap_t>(
+    if (!reply_url.empty()) {
+      config.url = reply_url;
+      reply_bus_ = std::make_unique<transport::Transport>(config);
+    }
+    receiver().subscribe<liloc::submap_t>(
         transport::robot_channel(id_, "SUBMAP"),
         [this](const liloc::submap_t& msg, const transport::ReceiveInfo& info) {
           on_reply(msg, info);
@@ -118,7 +166,7 @@ class Robot {
     const Clock::time_point end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                                      std::chrono::duration<double>(timeout_s));
     while (Clock::now() < end && !pending_.empty()) {
-      bus_->handle(50);
+      receiver().handle(50);
     }
     const bool answered = pending_.empty();
     pending_.clear();
@@ -145,12 +193,12 @@ class Robot {
       while (Clock::now() < next) {
         const auto left =
             std::chrono::duration_cast<std::chrono::milliseconds>(next - Clock::now());
-        bus_->handle(static_cast<int>(std::max<int64_t>(1, left.count())));
+        receiver().handle(static_cast<int>(std::max<int64_t>(1, left.count())));
       }
     }
     const Clock::time_point drain_end = Clock::now() + std::chrono::seconds(2);
     while (Clock::now() < drain_end && !pending_.empty()) {
-      bus_->handle(50);
+      receiver().handle(50);
     }
     result_.lost = static_cast<int64_t>(pending_.size());
   }
@@ -174,6 +222,7 @@ class Robot {
     }
     q.position = path_[index_];
     q.include_clouds = clouds;
+    q.reply_url = reply_url_;
     pending_[q.request_id] = {Clock::now(), clouds, 0};
     liloc::submap_request_t msg = bridge::to_msg(q, 0);
     bus_->publish(transport::ChannelConfig{}.map_request, msg);
@@ -197,10 +246,14 @@ class Robot {
     }
   }
 
+  transport::Transport& receiver() { return reply_bus_ ? *reply_bus_ : *bus_; }
+
   std::string id_;
+  std::string reply_url_;
   std::vector<Eigen::Vector3d> path_;
   size_t index_;
-  std::unique_ptr<transport::Transport> bus_;
+  std::unique_ptr<transport::Transport> bus_;        // requests (and replies without reply_url)
+  std::unique_ptr<transport::Transport> reply_bus_;  // the robot's own group, if any
   std::map<int64_t, Pending> pending_;
   int64_t request_id_ = 0;
   int64_t current_submap_ = -1;
@@ -213,6 +266,7 @@ struct Run {
   size_t keyframes = 0;
   size_t submaps = 0;
   int robots = 0;
+  bool reply_groups = false;  // a multicast group per robot for its replies
   double requests_per_s = 0.0;
   eval::LatencyStats all, position, clouds;
   int64_t lost = 0;
@@ -220,8 +274,25 @@ struct Run {
   ProcessMemory server;
 };
 
+// `url` with its port replaced: "udpm://239.255.76.67:7691?ttl=0" -> ":7700?ttl=0".
+std::string with_port(const std::string& url, int port) {
+  const size_t query = url.find('?');
+  const size_t colon = url.rfind(':', query);
+  if (url.rfind("udpm://", 0) != 0 || colon == std::string::npos || colon < 7) {
+    throw std::invalid_argument("--lcm-url: expected udpm://ADDRESS:PORT..., got '" + url + "'");
+  }
+  return url.substr(0, colon + 1) + std::to_string(port) +
+         (query == std::string::npos ? "" : url.substr(query));
+}
+
+int port_of(const std::string& url) {
+  const size_t query = url.find('?');
+  return std::stoi(url.substr(url.rfind(':', query) + 1));
+}
+
 Run run_once(const std::string& server_path, const std::string& config, const std::string& map_dir,
-             int copies, const std::string& url, int robots, double rate_hz, double duration_s) {
+             int copies, const std::string& url, bool reply_groups, int robots, double rate_hz,
+             double duration_s) {
   storage::MapStore store(map_dir);
   const MapData map = store.load();
   std::vector<Eigen::Vector3d> path;
@@ -231,7 +302,9 @@ Run run_once(const std::string& server_path, const std::string& config, const st
   const pid_t server = start_server(server_path, config, map_dir, url);
   std::vector<std::unique_ptr<Robot>> fleet;
   for (int r = 0; r < robots; ++r) {
-    fleet.push_back(std::make_unique<Robot>("bench" + std::to_string(r), url, path,
+    // Each robot's replies on a group of its own (the next ports after the bus's).
+    const std::string reply_url = reply_groups ? with_port(url, port_of(url) + 1 + r) : "";
+    fleet.push_back(std::make_unique<Robot>("bench" + std::to_string(r), url, reply_url, path,
                                             path.size() * static_cast<size_t>(r) / robots));
   }
   // The server is up when it answers.
@@ -262,6 +335,7 @@ Run run_once(const std::string& server_path, const std::string& config, const st
   run.keyframes = map.keyframes.size();
   run.submaps = map.submaps.size();
   run.robots = robots;
+  run.reply_groups = reply_groups;
   std::vector<double> all, position, clouds;
   int64_t requests = 0, bytes = 0;
   for (const auto& robot : fleet) {
@@ -298,7 +372,8 @@ int main(int argc, char** argv) {
   std::string url = "udpm://239.255.76.67:7691?ttl=0&recv_buf_size=4194304";
   int robots = 8;
   double rate_hz = 10.0;
-  double duration_s = 20.0;
+  double duration_s = 60.0;
+  bool shared_group = false;
   CommandLine cli("bench_mapserver",
                   "Robots requesting submaps from liloc_map_server over loopback: latency, "
                   "lost replies, server memory, for the map and a tiled bigger one.");
@@ -310,7 +385,9 @@ int main(int argc, char** argv) {
   cli.add_option("robots", &robots, "concurrent robots");
   cli.add_option("rate-hz", &rate_hz, "requests per robot per second");
   cli.add_option("duration-s", &duration_s, "length of each run");
-  cli.add_option("lcm-url", &url, "LCM URL of the run (its own port)");
+  cli.add_option("lcm-url", &url, "LCM URL of the run (its own port; robots reply groups next)");
+  cli.add_flag("shared-group", &shared_group,
+               "replies on the request bus, not on a multicast group per robot");
   cli.add_option("map-reports", &map_reports,
                  "comma list of `liloc_map build --json` reports (lidar=file) for map_ate_m");
   cli.add_option("json", &json_path, "result file ('' for none)");
@@ -327,10 +404,11 @@ int main(int argc, char** argv) {
         fs::remove_all(map_dir);
         fs::create_directories(map_dir);
         spdlog::info("writing the map tiled {}x to {}", copies, map_dir);
-        write_tiled_map(args[0], map_dir, copies);
+        in_child_process([&] { write_tiled_map(args[0], map_dir, copies); });
       }
-      runs.push_back(
-          run_once(server_path, config_path, map_dir, copies, url, robots, rate_hz, duration_s));
+      in_child_process([&] { prepare_reply_clouds(map_dir, config_path); });
+      runs.push_back(run_once(server_path, config_path, map_dir, copies, url, !shared_group, robots,
+                              rate_hz, duration_s));
       const Run& r = runs.back();
       spdlog::info("{}x: {} requests/s, p99 {:.2f} ms, lost {}", copies, r.requests_per_s,
                    r.all.p99_ms, r.lost);
@@ -382,6 +460,8 @@ int main(int argc, char** argv) {
           .integer(static_cast<int64_t>(r.keyframes))
           .key("robots")
           .integer(r.robots)
+          .key("reply_groups")
+          .boolean(r.reply_groups)
           .key("requests_per_s")
           .number(r.requests_per_s)
           .key("reply_ms_p50")
@@ -390,6 +470,8 @@ int main(int argc, char** argv) {
           .number(r.all.p99_ms)
           .key("reply_ms_max")
           .number(r.all.max_ms)
+          .key("position_reply_ms_p99")
+          .number(r.position.p99_ms)
           .key("cloud_reply_ms_p99")
           .number(r.clouds.p99_ms)
           .key("lost_replies")

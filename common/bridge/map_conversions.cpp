@@ -65,6 +65,7 @@ SubmapQuery from_msg(const liloc::submap_request_t& msg) {
   q.max_submaps = msg.max_submaps;
   q.submap_ids = msg.submap_ids;
   q.include_clouds = msg.include_clouds;
+  q.reply_url = msg.reply_url;
   return q;
 }
 
@@ -82,6 +83,7 @@ liloc::submap_request_t to_msg(const SubmapQuery& q, int64_t utime) {
   msg.submap_ids = q.submap_ids;
   msg.num_ids = static_cast<int32_t>(q.submap_ids.size());
   msg.include_clouds = q.include_clouds;
+  msg.reply_url = q.reply_url;
   return msg;
 }
 

@@ -68,11 +68,14 @@ struct LoopClosureConfig {
   double max_rotation_drift_rad_per_m = 1e-4;
   double correction_floor_rad = 0.035;
   // More iterations and associations than the odometry's: the start is off by the drift
-  // of a whole loop, not by one sweep's motion.
+  // of a whole loop, not by one sweep's motion. Planes as loose as 0.25 (the odometry
+  // needs 0.4 against the bands its own nearby sweeps leave): the target is a local map
+  // of 20 keyframes from several viewpoints, and the acceptance above was measured so.
   RegistrationConfig registration = [] {
     RegistrationConfig c;
     c.max_iterations = 30;
     c.max_associations = 10;
+    c.min_planarity = 0.25;
     return c;
   }();
   VoxelMapConfig target_map;  // the local map built around a candidate

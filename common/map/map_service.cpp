@@ -4,9 +4,6 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "pointcloud/voxel_grid.hpp"
-#include "pointcloud/voxel_index_table.hpp"
-
 namespace liloc {
 
 void MapServiceConfig::validate() const {
@@ -20,9 +17,19 @@ void MapServiceConfig::validate() const {
   }
 }
 
-MapService::MapService(MapData map, CloudSource clouds, const MapServiceConfig& config)
-    : map_(std::move(map)), cloud_source_(std::move(clouds)), config_(config), database_(map_) {
+MapService::MapService(MapData map, KeyframeCloudSource clouds, const MapServiceConfig& config,
+                       const SubmapCloudStore* store)
+    : map_(std::move(map)),
+      cloud_source_(std::move(clouds)),
+      config_(config),
+      store_(store),
+      database_(map_) {
   config_.validate();
+  if (store_ != nullptr && store_->voxel_m() != config_.reply_voxel_m) {
+    throw std::invalid_argument("the submap cloud store's voxel size (" +
+                                std::to_string(store_->voxel_m()) + " m) is not reply_voxel_m (" +
+                                std::to_string(config_.reply_voxel_m) + " m)");
+  }
 }
 
 std::vector<SubmapReplyPart> MapService::answer(const SubmapQuery& query) {
@@ -140,28 +147,23 @@ std::vector<SubmapReplyPart> MapService::complete(ReplyPlan& reply) const {
   return parts;
 }
 
-std::vector<std::shared_ptr<const PointCloud>> MapService::reply_clouds(
-    const ReplyPlan::Item& item, double reply_voxel_m) const {
-  std::vector<std::shared_ptr<const PointCloud>> out;
-  out.reserve(item.keyframes.size());
-  const float voxel_m = static_cast<float>(reply_voxel_m);
-  VoxelIndexTable seen(1 << 16);
+SubmapClouds MapService::reply_clouds(const ReplyPlan::Item& item, double reply_voxel_m) const {
+  if (store_ != nullptr) {
+    if (std::optional<SubmapClouds> stored = store_->load(item.submap, item.keyframes)) {
+      return std::move(*stored);
+    }
+  }
+  SubmapClouds full;
   for (size_t k = 0; k < item.keyframes.size(); ++k) {
-    std::shared_ptr<const PointCloud> full =
-        item.sources[k] ? item.sources[k] : cloud_source_(item.keyframes[k].id);
-    if (voxel_m <= 0.0f) {
-      out.push_back(std::move(full));
-      continue;
+    full.push_back(item.sources[k] ? item.sources[k] : cloud_source_(item.keyframes[k].id));
+  }
+  SubmapClouds out = deduplicate_submap_clouds(item.keyframes, full, reply_voxel_m);
+  if (store_ != nullptr) {
+    try {
+      store_->save(item.submap, item.keyframes, out);
+    } catch (const std::exception&) {
+      ++store_errors_;  // the reply does not need it; the next request tries again
     }
-    const Eigen::Affine3f T_map_body(item.keyframes[k].T_map_body.cast<float>());
-    auto kept = std::make_shared<PointCloud>();
-    for (size_t i = 0; i < full->size(); ++i) {
-      if (seen.insert(voxel_key(voxel_index(T_map_body * full->points[i], voxel_m))).second) {
-        kept->points.push_back(full->points[i]);
-        kept->intensities.push_back(full->intensities[i]);
-      }
-    }
-    out.push_back(std::move(kept));
   }
   return out;
 }

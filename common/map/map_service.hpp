@@ -5,6 +5,7 @@
 // (assembled from their chunks, validated, cut into new submaps by Eq. 2). The process
 // converts messages to and from these types and saves the map.
 
+#include <atomic>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "map/map_types.hpp"
+#include "map/submap_clouds.hpp"
 #include "map/submap_database.hpp"
 #include "pointcloud/point_cloud.hpp"
 
@@ -26,14 +28,11 @@ struct MapServiceConfig {
   // Keyframe clouds per reply message, in points (16 bytes each on the wire): a submap
   // beyond this is sent in several chunks of whole keyframes.
   int max_chunk_points = 150000;
-  // A submap's keyframes overlap (1 m apart, each seeing ~100 m): with this > 0 a reply
-  // sends each map voxel of this size once, with the first keyframe of the submap that
-  // holds a point in it (points stay in their keyframe's frame). Measured (8 robots,
-  // docs/map_server.md): 0.3 m cuts the bytes sent 3x but the deduplication costs more
-  // time than the bytes save on loopback, so it is off (0: full keyframe clouds) unless
-  // the network is the bottleneck.
-  double reply_voxel_m = 0.0;
-  int reply_cache_submaps = 64;             // deduplicated submap clouds kept for the next requests
+  // Replies send each map voxel of this size once (map/submap_clouds.hpp; 0: the full
+  // keyframe clouds, which overlap ~3x). The deduplicated clouds of a submap are computed
+  // once and kept in the SubmapCloudStore given to the service, if any.
+  double reply_voxel_m = 0.3;
+  int reply_cache_submaps = 64;             // submaps' reply clouds kept in memory
   std::vector<std::string> allowed_robots;  // updates from other robots are refused; empty: any
   int max_update_keyframes = 1000;
   int64_t max_update_points = 20000000;
@@ -64,6 +63,7 @@ struct SubmapQuery {
   int max_submaps = 0;                                 // 0: the server's maximum
   std::vector<int64_t> submap_ids;
   bool include_clouds = true;
+  std::string reply_url;  // empty: the request's bus (see submap_request_t)
 };
 
 // One message of a reply.
@@ -118,9 +118,10 @@ struct MapServiceCounters {
 
 class MapService {
  public:
-  using CloudSource = std::function<std::shared_ptr<const PointCloud>(int64_t keyframe_id)>;
-
-  MapService(MapData map, CloudSource clouds, const MapServiceConfig& config);
+  // `store` (may be null; must outlive the service) keeps the deduplicated reply clouds of
+  // submaps between requests and runs; its voxel size must be config.reply_voxel_m.
+  MapService(MapData map, KeyframeCloudSource clouds, const MapServiceConfig& config,
+             const SubmapCloudStore* store = nullptr);
   MapService(const MapService&) = delete;
   MapService& operator=(const MapService&) = delete;
 
@@ -128,9 +129,9 @@ class MapService {
 
   // answer() in three steps, for a server that answers from several threads under one
   // lock: plan() with the lock held (cheap: ids, keyframes, cached clouds), complete()
-  // without it (loads clouds through the cloud source, which must then be thread-safe,
-  // and leaves out what other keyframes of the submap already cover), remember() with
-  // the lock again (keeps those clouds for the next request).
+  // without it (reads the submaps' clouds from the store, or else loads the keyframes'
+  // through the cloud source, which must then be thread-safe, deduplicates and stores
+  // them), remember() with the lock again (keeps those clouds for the next request).
   struct ReplyPlan {
     struct Item {
       Submap submap;
@@ -159,6 +160,8 @@ class MapService {
   const MapData& map() const { return map_; }
   const SubmapDatabase& database() const { return database_; }
   const MapServiceCounters& counters() const { return counters_; }
+  // Reply clouds the store could not keep (they were sent all the same).
+  int64_t store_errors() const { return store_errors_.load(); }
   // Clouds merged since the last call: the process saves them with the map, then calls
   // saved() with the version on disk, so that they are served from storage from then on
   // and replies name the saved version.
@@ -175,14 +178,14 @@ class MapService {
   };
   std::optional<std::string> validate(const MapUpdatePart& part) const;
   UpdateOutcome merge(const std::string& robot_id, PendingUpdate& update);
-  // The clouds a reply sends for a submap, one per keyframe in its order (see
-  // MapServiceConfig::reply_voxel_m).
-  std::vector<std::shared_ptr<const PointCloud>> reply_clouds(const ReplyPlan::Item& item,
-                                                              double reply_voxel_m) const;
+  // The clouds a reply sends for a submap: stored, or else computed and stored.
+  SubmapClouds reply_clouds(const ReplyPlan::Item& item, double reply_voxel_m) const;
 
   MapData map_;
-  CloudSource cloud_source_;
+  KeyframeCloudSource cloud_source_;
   MapServiceConfig config_;
+  const SubmapCloudStore* store_;
+  mutable std::atomic<int64_t> store_errors_{0};
   SubmapDatabase database_;
   MapServiceCounters counters_;
   std::map<std::pair<std::string, int64_t>, PendingUpdate> pending_;  // (robot, update id)

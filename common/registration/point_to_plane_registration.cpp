@@ -10,9 +10,8 @@ namespace liloc {
 namespace {
 
 constexpr int kNeighbors = 5;  // paper Eq. 6
-// Second over largest eigenvalue of the neighbours' scatter: below, they lie on a line.
-constexpr double kMinPlanarity = 0.25;
-// ... and spread in their second direction by more than range noise does (m, 1 sigma).
+// The neighbours must spread in their second direction by more than range noise does
+// (m, 1 sigma).
 constexpr double kMinSpread = 0.05;
 
 // Normal equations accumulated over matched points.
@@ -60,7 +59,7 @@ std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const V
       continue;
     }
     const std::optional<Plane> plane =
-        fit_plane(n.points.data(), n.count, config.max_plane_thickness_m);
+        fit_plane(n.points.data(), n.count, config.max_plane_thickness_m, config.min_planarity);
     if (!plane) {
       continue;
     }
@@ -136,6 +135,9 @@ void RegistrationConfig::validate() const {
       point_sigma_m <= 0) {
     throw std::invalid_argument("distances and sigmas must be positive");
   }
+  if (!(min_planarity >= 0 && min_planarity <= 1)) {
+    throw std::invalid_argument("min_planarity must lie in [0, 1]");
+  }
 }
 
 Eigen::Isometry3d pose_plus(const Eigen::Isometry3d& T, const Vector6d& d) {
@@ -150,7 +152,8 @@ Vector6d pose_minus(const Eigen::Isometry3d& T, const Eigen::Isometry3d& T_ref) 
   return d;
 }
 
-std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double max_thickness_m) {
+std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double max_thickness_m,
+                               double min_planarity) {
   if (count < 3) {
     return std::nullopt;
   }
@@ -172,7 +175,7 @@ std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double 
   // rings, and five points along one ring, spread across it only by range noise, fit a
   // "plane" that contains the ray. Such planes pin the sensor to its own rings and
   // make the registration stick to zero motion.
-  if (solver.eigenvalues()(1) < kMinPlanarity * solver.eigenvalues()(2) ||
+  if (solver.eigenvalues()(1) < min_planarity * solver.eigenvalues()(2) ||
       solver.eigenvalues()(1) < kMinSpread * kMinSpread) {
     return std::nullopt;
   }

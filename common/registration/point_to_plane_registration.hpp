@@ -23,7 +23,12 @@ struct RegistrationConfig {
   int max_associations = 3;             // nearest-neighbour searches (the first iterations)
   double max_correspondence_m = 0.5;    // search radius of the 5 nearest neighbours
   double max_plane_thickness_m = 0.05;  // every neighbour within this of the fitted plane
-  double cauchy_scale_m = 0.1;          // robust kernel: residuals well beyond are discounted
+  // Second over largest eigenvalue of the neighbours' scatter: below, they lie on a band
+  // rather than a patch. A 16-ring LiDAR sees the ground in rings; nearby sweeps stack
+  // them into narrow bands whose fitted planes tilt, and at 0.25 those pulled a VLP-16
+  // run behind its motion until it diverged (docs/odometry.md).
+  double min_planarity = 0.4;
+  double cauchy_scale_m = 0.1;  // robust kernel: residuals well beyond are discounted
   // A plane seen nearly edge-on (|normal . ray| below this) is not used: along the ray
   // the sensor's own range noise spreads points into false planes (see fit_plane).
   double min_incidence_cos = 0.1;
@@ -41,6 +46,7 @@ struct RegistrationConfig {
     v("max_associations", max_associations);
     v("max_correspondence_m", max_correspondence_m);
     v("max_plane_thickness_m", max_plane_thickness_m);
+    v("min_planarity", min_planarity);
     v("cauchy_scale_m", cauchy_scale_m);
     v("min_incidence_cos", min_incidence_cos);
     v("point_sigma_m", point_sigma_m);
@@ -79,7 +85,8 @@ struct Plane {
   double offset;           // d
   double thickness_m;      // largest point distance from the plane
 };
-std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double max_thickness_m);
+std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double max_thickness_m,
+                               double min_planarity);
 
 // Registers source points (body frame; measured from sensor_origin_body) to the map,
 // starting at T_map_body_guess.

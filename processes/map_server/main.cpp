@@ -10,7 +10,10 @@
 #include <chrono>
 #include <deque>
 #include <functional>
+#include <map>
+#include <memory>
 #include <mutex>
+#include <thread>
 
 #include "app/program.hpp"
 #include "app/serial_worker.hpp"
@@ -21,6 +24,7 @@
 #include "storage/cloud_cache.hpp"
 #include "storage/map_error.hpp"
 #include "storage/map_store.hpp"
+#include "storage/submap_cloud_files.hpp"
 #include "system/system_config.hpp"
 
 namespace {
@@ -108,9 +112,10 @@ class MapServerProcess {
       : config_(config),
         store_(store),
         cache_(store, static_cast<size_t>(config.map_server.cache_mb * 1024 * 1024)),
+        submap_files_(store.directory(), config.map_server.service.reply_voxel_m),
         service_(
             std::move(map), [this](int64_t id) { return cache_.get(id); },
-            config.map_server.service),
+            config.map_server.service, deduplicating() ? &submap_files_ : nullptr),
         saver_(store, service_.map().version, config.descriptor, config.map_server.keep_versions),
         bus_(config.transport) {
     disk_version_ = service_.map().version;
@@ -143,9 +148,20 @@ class MapServerProcess {
         });
   }
 
+  ~MapServerProcess() {
+    stop_filling_ = true;
+    if (filler_.joinable()) {
+      filler_.join();
+    }
+  }
+
   void run() {
     const MapData& map = service_.map();
-    warm_cache(map);
+    if (deduplicating()) {
+      start_filling(map);
+    } else {
+      warm_cache(map);
+    }
     spdlog::info("serving map '{}' version {}: {} keyframes, {} submaps, on {}", map.map_id,
                  map.version, map.keyframes.size(), map.submaps.size(), config_.transport.url);
     Clock::time_point next_info = Clock::now();
@@ -187,6 +203,13 @@ class MapServerProcess {
   // sent without it, so that other requests and updates go on meanwhile.
   void reply(const SubmapQuery& query, int64_t request_utime) {
     const Clock::time_point start = Clock::now();
+    transport::Transport* bus = reply_bus(query.reply_url);
+    if (bus == nullptr) {
+      ++refused_reply_urls_;
+      spdlog::warn("request {} of {}: reply_url '{}' refused (udpm:// only, at most {} URLs)",
+                   query.request_id, query.robot_id, query.reply_url, kMaxReplyBuses);
+      return;
+    }
     MapService::ReplyPlan plan;
     {
       std::lock_guard<std::mutex> lock(service_mutex_);
@@ -200,9 +223,56 @@ class MapServerProcess {
     const std::string channel = transport::robot_channel(query.robot_id, config_.channels.submap);
     for (const SubmapReplyPart& part : parts) {
       liloc::submap_t message = bridge::to_msg(part, request_utime);
-      bus_.publish(channel, message);
+      bus->publish(channel, message);
     }
     last_reply_ms_ = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  }
+
+  // The bus a reply goes to: the robot's own (reply_url) if it named one, else the
+  // request's. Null for a URL that is not udpm://, or beyond kMaxReplyBuses of them.
+  transport::Transport* reply_bus(const std::string& url) {
+    if (url.empty()) {
+      return &bus_;
+    }
+    std::lock_guard<std::mutex> lock(reply_buses_mutex_);
+    const auto it = reply_buses_.find(url);
+    if (it != reply_buses_.end()) {
+      return it->second.get();
+    }
+    if (url.rfind("udpm://", 0) != 0 || reply_buses_.size() >= kMaxReplyBuses) {
+      return nullptr;
+    }
+    transport::TransportConfig reply_config = config_.transport;
+    reply_config.url = url;
+    reply_config.publish_url.clear();
+    try {
+      return reply_buses_.emplace(url, std::make_unique<transport::Transport>(reply_config))
+          .first->second.get();
+    } catch (const std::exception& e) {
+      spdlog::warn("reply_url '{}': {}", url, e.what());
+      return nullptr;
+    }
+  }
+
+  bool deduplicating() const { return config_.map_server.service.reply_voxel_m > 0.0; }
+
+  // Computes, in the background, the reply clouds of the submaps that have none on disk
+  // yet (a map built by an older liloc_map, or other tools), so that requests find them.
+  void start_filling(const MapData& map) {
+    filler_ = std::thread([this, map] {
+      const Clock::time_point start = Clock::now();
+      try {
+        const int computed = fill_submap_cloud_store(
+            map, [this](int64_t id) { return cache_.get(id); }, submap_files_,
+            [this] { return stop_filling_.load() || shutdown_requested(); });
+        submap_clouds_computed_ = computed;
+        spdlog::info("submap reply clouds: {} of {} computed in {:.1f} s, the others on disk",
+                     computed, map.submaps.size(),
+                     std::chrono::duration<double>(Clock::now() - start).count());
+      } catch (const std::exception& e) {
+        spdlog::error("computing submap reply clouds: {} (requests compute them)", e.what());
+      }
+    });
   }
 
   // Loads keyframe clouds until the cache is three quarters full, so that the first
@@ -236,7 +306,11 @@ class MapServerProcess {
                        {"pending_saves", pending_saves_},
                        {"cache_bytes", static_cast<int64_t>(cache_.bytes())},
                        {"cache_hits", cache_.hits()},
-                       {"cache_misses", cache_.misses()}};
+                       {"cache_misses", cache_.misses()},
+                       {"refused_reply_urls", refused_reply_urls_.load()},
+                       {"submap_clouds_computed", submap_clouds_computed_.load()},
+                       {"submap_cloud_files_damaged", submap_files_.damaged()},
+                       {"submap_cloud_store_errors", service_.store_errors()}};
     report.add_transport_counters(bus_);
     report.message = last_message_;
     liloc::status_t status = bridge::to_msg(report, now_us(), "map_server");
@@ -246,13 +320,21 @@ class MapServerProcess {
   SystemConfig config_;
   storage::MapStore& store_;
   storage::CloudCache cache_;
+  storage::SubmapCloudFiles submap_files_;
   MapService service_;
   MapSaver saver_;
   transport::Transport bus_;
+  static constexpr size_t kMaxReplyBuses = 64;
+  std::mutex reply_buses_mutex_;                                              // guards reply_buses_
+  std::map<std::string, std::unique_ptr<transport::Transport>> reply_buses_;  // by URL
+  std::atomic<int64_t> refused_reply_urls_{0};
   int64_t disk_version_ = 0;
   int pending_saves_ = 0;
   std::atomic<double> last_reply_ms_{0.0};
   std::string last_message_;
+  std::atomic<bool> stop_filling_{false};
+  std::atomic<int64_t> submap_clouds_computed_{0};
+  std::thread filler_;
   // Guards service_: position queries are answered on the LCM thread, cloud replies
   // (megabytes to encode and send) on the reply worker, so that they never hold up the
   // small ones.

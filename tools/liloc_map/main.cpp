@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "app/program.hpp"
+#include "config/yaml_config.hpp"
 #include "liloc_map/map_build.hpp"
 #include "liloc_map/map_render.hpp"
 #include "pointcloud/voxel_grid.hpp"
@@ -32,6 +33,7 @@
 #include "storage/map_layout.hpp"
 #include "storage/map_store.hpp"
 #include "storage/pcd_codec.hpp"
+#include "storage/submap_cloud_files.hpp"
 
 namespace {
 using namespace liloc;
@@ -289,19 +291,27 @@ int render(int argc, const char* const* argv) {
 int prune(int argc, const char* const* argv) {
   std::vector<std::string> args;
   int keep = 2;
+  std::string config_path = "config/liloc.yaml";
   CommandLine cli("liloc_map prune",
                   "Keeps the current version and the newest ones before it; removes older "
-                  "versions, leftovers of interrupted saves and keyframe files no kept version "
-                  "lists.");
+                  "versions, leftovers of interrupted saves, keyframe files no kept version "
+                  "lists and submap reply clouds the current version does not use.");
   cli.add_positional("DIR", &args, "the map directory", 1);
   cli.add_option("keep", &keep, "versions to keep, the current one included");
+  cli.add_option("config", &config_path, "system config (map_server.service.reply_voxel_m)");
   return run_program(cli, kProgram, argc, argv, [&]() -> int {
     require_arguments(args, {"DIR"});
+    const SystemConfig config = load_config<SystemConfig>(config_path);
     storage::MapStore store(args[0]);
     const storage::PruneResult result = store.prune(keep);
-    spdlog::info("removed {} version directories and {} keyframe files ({})",
-                 result.versions_removed, result.keyframe_files_removed,
-                 format_bytes(result.bytes_removed));
+    const int reply_clouds =
+        storage::SubmapCloudFiles(args[0], config.map_server.service.reply_voxel_m)
+            .prune(store.load());
+    spdlog::info(
+        "removed {} version directories, {} keyframe files ({}) and {} submap reply "
+        "cloud files",
+        result.versions_removed, result.keyframe_files_removed, format_bytes(result.bytes_removed),
+        reply_clouds);
     return 0;
   });
 }

@@ -16,6 +16,7 @@
 #include "map/central_session_builder.hpp"
 #include "map/keyframe_descriptors.hpp"
 #include "storage/map_store.hpp"
+#include "storage/submap_cloud_files.hpp"
 #include "system/system_config.hpp"
 #include "transport/transport.hpp"
 
@@ -95,6 +96,22 @@ DriveResult run_odometry(const SystemConfig& config, const std::string& log_path
   return drive;
 }
 
+// The deduplicated reply clouds of every submap, so that the server need not compute them.
+void save_submap_clouds(const std::string& directory, const MapData& map,
+                        const std::map<int64_t, PointCloud>& clouds, const SystemConfig& config) {
+  const double voxel_m = config.map_server.service.reply_voxel_m;
+  if (voxel_m <= 0.0) {
+    return;  // the server sends the keyframe files as they are
+  }
+  fill_submap_cloud_store(
+      map,
+      // Borrowed, not owned: `clouds` outlives the fill.
+      [&clouds](int64_t id) {
+        return std::shared_ptr<const PointCloud>(&clouds.at(id), [](const PointCloud*) {});
+      },
+      storage::SubmapCloudFiles(directory, voxel_m));
+}
+
 }  // namespace
 
 MapData save_built_map(CentralSessionBuilder& builder, const SystemConfig& config,
@@ -105,6 +122,7 @@ MapData save_built_map(CentralSessionBuilder& builder, const SystemConfig& confi
   map.map_id = map_id;
   storage::MapStore(directory).save(
       map, clouds, encode_keyframe_descriptors(map.keyframes, clouds, config.descriptor));
+  save_submap_clouds(directory, map, clouds, config);
   print_map_summary(directory, map, *report);
   return map;
 }
