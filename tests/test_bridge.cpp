@@ -108,6 +108,37 @@ TEST(LcmConversions, ImuBatchRoundTripDropsNonFiniteSamples) {
   EXPECT_EQ(back[1].accel_mps2.z(), 11.8);
 }
 
+// Quantized clouds: within half a centimetre and 1/510 of the largest intensity; a cloud
+// too large for 1 cm steps in int16 gets coarser steps rather than wrapping around.
+TEST(LcmConversions, CompactCloudQuantizesWithinHalfAStep) {
+  PointCloud cloud;
+  cloud.push_back(Eigen::Vector3f(12.3456f, -98.7654f, 0.0049f), 0.0f);
+  cloud.push_back(Eigen::Vector3f(-0.001f, 250.0f, -3.2f), 100.0f);
+  cloud.push_back(Eigen::Vector3f(1, 2, 3), kNaN);
+  const liloc::compact_cloud_t msg = to_compact_msg(cloud);
+  EXPECT_FLOAT_EQ(msg.resolution_m, 0.01f);
+  const PointCloud back = from_msg(msg);
+  ASSERT_EQ(back.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) {
+    EXPECT_LE((back.points[i] - cloud.points[i]).cwiseAbs().maxCoeff(), 0.005f + 1e-5f);
+  }
+  EXPECT_NEAR(back.intensities[1], 100.0f, 1e-3f);
+  EXPECT_EQ(back.intensities[2], 0.0f);
+
+  PointCloud far;
+  far.push_back(Eigen::Vector3f(1000.0f, -1000.0f, 5.0f), 1.0f);
+  const liloc::compact_cloud_t coarse = to_compact_msg(far);
+  EXPECT_GT(coarse.resolution_m, 0.03f);
+  EXPECT_LE((from_msg(coarse).points[0] - far.points[0]).cwiseAbs().maxCoeff(),
+            coarse.resolution_m / 2 + 1e-3f);
+
+  far.push_back(Eigen::Vector3f(kNaN, 0, 0), 1.0f);
+  EXPECT_THROW(to_compact_msg(far), std::invalid_argument);
+  liloc::compact_cloud_t bad = msg;
+  bad.resolution_m = 0.0f;
+  EXPECT_THROW(from_msg(bad), std::invalid_argument);
+}
+
 TEST(MapConversions, SubmapRequestRoundTripKeepsTheReplyUrl) {
   SubmapQuery q;
   q.robot_id = "r3";
@@ -159,8 +190,11 @@ TEST(MapConversions, SubmapReplyRoundTripSplitsTheCloudsByKeyframe) {
   EXPECT_EQ(back.keyframes[1].id, 11);
   EXPECT_TRUE(back.keyframes[1].T_map_body.isApprox(part.keyframes[1].T_map_body));
   for (int k = 0; k < 2; ++k) {
-    EXPECT_EQ(back.clouds[k]->points, part.clouds[k]->points);
-    EXPECT_EQ(back.clouds[k]->intensities, part.clouds[k]->intensities);
+    ASSERT_EQ(back.clouds[k]->size(), part.clouds[k]->size());
+    for (size_t i = 0; i < part.clouds[k]->size(); ++i) {
+      EXPECT_LT((back.clouds[k]->points[i] - part.clouds[k]->points[i]).norm(), 0.01);
+      EXPECT_NEAR(back.clouds[k]->intensities[i], part.clouds[k]->intensities[i], 0.01);
+    }
   }
   msg.cloud_offsets[1] = 99;  // beyond the cloud
   EXPECT_THROW(from_msg(msg), std::invalid_argument);

@@ -1,5 +1,6 @@
 #include "bridge/lcm_conversions.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -95,6 +96,58 @@ PointCloud from_msg(const liloc::point_cloud_t& msg, size_t* non_finite) {
     cloud.push_back(p, std::isfinite(msg.intensity[i]) ? msg.intensity[i] : 0.0f);
   }
   count(non_finite, bad);
+  return cloud;
+}
+
+liloc::compact_cloud_t to_compact_msg(const PointCloud& cloud, float resolution_m) {
+  constexpr float kMaxSteps = 32767.0f;  // int16
+  float extent = 0.0f;
+  float max_intensity = 0.0f;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud.points[i].allFinite()) {
+      throw std::invalid_argument("compact cloud: point " + std::to_string(i) + " is not finite");
+    }
+    extent = std::max(extent, cloud.points[i].cwiseAbs().maxCoeff());
+    if (std::isfinite(cloud.intensities[i])) {
+      max_intensity = std::max(max_intensity, cloud.intensities[i]);
+    }
+  }
+  liloc::compact_cloud_t msg;
+  // The extent must round inside int16: one step of margin.
+  msg.resolution_m = std::max(resolution_m, extent / (kMaxSteps - 1.0f));
+  msg.intensity_scale = max_intensity > 0.0f ? max_intensity / 255.0f : 1.0f;
+  const size_t n = cloud.size();
+  msg.num_points = static_cast<int32_t>(n);
+  msg.x.resize(n);
+  msg.y.resize(n);
+  msg.z.resize(n);
+  msg.intensity.resize(n);
+  const float to_steps = 1.0f / msg.resolution_m;
+  const float to_byte = 1.0f / msg.intensity_scale;
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f& p = cloud.points[i];
+    msg.x[i] = static_cast<int16_t>(std::lround(p.x() * to_steps));
+    msg.y[i] = static_cast<int16_t>(std::lround(p.y() * to_steps));
+    msg.z[i] = static_cast<int16_t>(std::lround(p.z() * to_steps));
+    const float intensity = std::isfinite(cloud.intensities[i]) ? cloud.intensities[i] : 0.0f;
+    msg.intensity[i] = static_cast<uint8_t>(std::clamp(std::lround(intensity * to_byte), 0L, 255L));
+  }
+  return msg;
+}
+
+PointCloud from_msg(const liloc::compact_cloud_t& msg) {
+  if (!(std::isfinite(msg.resolution_m) && msg.resolution_m > 0.0f) ||
+      !(std::isfinite(msg.intensity_scale) && msg.intensity_scale > 0.0f)) {
+    throw std::invalid_argument("compact cloud: resolution " + std::to_string(msg.resolution_m) +
+                                " m or intensity scale " + std::to_string(msg.intensity_scale) +
+                                " is not positive");
+  }
+  PointCloud cloud;
+  cloud.reserve(static_cast<size_t>(msg.num_points));
+  for (int32_t i = 0; i < msg.num_points; ++i) {
+    cloud.push_back(Eigen::Vector3f(msg.x[i], msg.y[i], msg.z[i]) * msg.resolution_m,
+                    msg.intensity[i] * msg.intensity_scale);
+  }
   return cloud;
 }
 

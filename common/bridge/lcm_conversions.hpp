@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "imu/imu_sample.hpp"
+#include "liloc/compact_cloud_t.hpp"
 #include "liloc/header_t.hpp"
 #include "liloc/imu_t.hpp"
 #include "liloc/lidar_scan_t.hpp"
@@ -35,6 +36,13 @@ Matrix6d covariance_from_msg(const double (&values)[36]);
 liloc::point_cloud_t to_msg(const PointCloud& cloud);
 // Points with a non-finite coordinate are dropped and counted in *non_finite.
 PointCloud from_msg(const liloc::point_cloud_t& msg, size_t* non_finite = nullptr);
+
+// Quantized (compact_cloud_t): coordinates to `resolution_m`, coarser only where the
+// cloud's extent needs it; intensities to 1/255 of the largest. Points with a non-finite
+// coordinate must not be given (std::invalid_argument).
+liloc::compact_cloud_t to_compact_msg(const PointCloud& cloud, float resolution_m = 0.01f);
+// Throws std::invalid_argument for a resolution or scale that is not positive and finite.
+PointCloud from_msg(const liloc::compact_cloud_t& msg);
 
 liloc::lidar_scan_t to_msg(const LidarScan& scan, const std::string& robot_id,
                            const std::string& frame_id, const std::string& sensor_model);

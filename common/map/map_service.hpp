@@ -25,7 +25,7 @@ namespace liloc {
 
 struct MapServiceConfig {
   int max_submaps_per_reply = 4;
-  // Keyframe clouds per reply message, in points (16 bytes each on the wire): a submap
+  // Keyframe clouds per reply message, in points (7 bytes each on the wire): a submap
   // beyond this is sent in several chunks of whole keyframes.
   int max_chunk_points = 150000;
   // Replies send each map voxel of this size once (map/submap_clouds.hpp; 0: the full
