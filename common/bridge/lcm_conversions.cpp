@@ -124,13 +124,16 @@ liloc::compact_cloud_t to_compact_msg(const PointCloud& cloud, float resolution_
   msg.intensity.resize(n);
   const float to_steps = 1.0f / msg.resolution_m;
   const float to_byte = 1.0f / msg.intensity_scale;
+  // Round half away from zero, inline: std::lround is a library call per coordinate, the
+  // largest cost of encoding a submap reply.
+  const auto round = [](float v) { return static_cast<int32_t>(v >= 0.0f ? v + 0.5f : v - 0.5f); };
   for (size_t i = 0; i < n; ++i) {
     const Eigen::Vector3f& p = cloud.points[i];
-    msg.x[i] = static_cast<int16_t>(std::lround(p.x() * to_steps));
-    msg.y[i] = static_cast<int16_t>(std::lround(p.y() * to_steps));
-    msg.z[i] = static_cast<int16_t>(std::lround(p.z() * to_steps));
+    msg.x[i] = static_cast<int16_t>(round(p.x() * to_steps));
+    msg.y[i] = static_cast<int16_t>(round(p.y() * to_steps));
+    msg.z[i] = static_cast<int16_t>(round(p.z() * to_steps));
     const float intensity = std::isfinite(cloud.intensities[i]) ? cloud.intensities[i] : 0.0f;
-    msg.intensity[i] = static_cast<uint8_t>(std::clamp(std::lround(intensity * to_byte), 0L, 255L));
+    msg.intensity[i] = static_cast<uint8_t>(std::clamp(round(intensity * to_byte), 0, 255));
   }
   return msg;
 }

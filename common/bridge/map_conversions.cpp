@@ -12,7 +12,12 @@ namespace {
 // are left out (they cannot be quantized, and no reader could use them).
 PointCloud concatenate(const std::vector<std::shared_ptr<const PointCloud>>& clouds,
                        std::vector<int32_t>& offsets) {
+  size_t total = 0;
+  for (const auto& c : clouds) {
+    total += c->size();
+  }
   PointCloud all;
+  all.reserve(total);
   for (const auto& c : clouds) {
     offsets.push_back(static_cast<int32_t>(all.size()));
     for (size_t i = 0; i < c->size(); ++i) {

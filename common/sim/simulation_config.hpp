@@ -1,6 +1,6 @@
 #pragma once
 // Everything that defines a simulated multi-session dataset, as one config struct
-// (YAML-loadable; see config/sim.yaml).
+// (YAML-loadable; `liloc_sim --print-config` writes every field).
 
 #include <Eigen/Core>
 #include <cstdint>

@@ -205,9 +205,11 @@ class MapServerProcess {
     const Clock::time_point start = Clock::now();
     transport::Transport* bus = reply_bus(query.reply_url);
     if (bus == nullptr) {
-      ++refused_reply_urls_;
-      spdlog::warn("request {} of {}: reply_url '{}' refused (udpm:// only, at most {} URLs)",
-                   query.request_id, query.robot_id, query.reply_url, kMaxReplyBuses);
+      // Logged the first time and then every 100th, not at every request of a robot.
+      if (refused_reply_urls_++ % 100 == 0) {
+        spdlog::warn("request {} of {}: reply_url '{}' refused (udpm:// only, at most {} URLs)",
+                     query.request_id, query.robot_id, query.reply_url, kMaxReplyBuses);
+      }
       return;
     }
     MapService::ReplyPlan plan;

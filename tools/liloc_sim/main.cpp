@@ -29,7 +29,8 @@ int main(int argc, char** argv) {
   double length_scale = 1.0;
   bool print_config = false;
   CommandLine cli("liloc_sim", "Simulate a multi-session LiDAR-inertial dataset.");
-  cli.add_option("config", &config_path, "YAML file with a 'sim' section (see config/sim.yaml)");
+  cli.add_option("config", &config_path,
+                 "YAML file with a 'sim' section (liloc_sim --print-config writes one)");
   cli.add_option("out", &out_dir, "output folder; sessions go to <out>/<world>/<lidar>/<session>/");
   cli.add_option("world", &world_kind, "campus or corridor (overrides the config)");
   cli.add_option("seed", &seed, "world seed (overrides the config)");
