@@ -69,6 +69,7 @@ TEST(CommandLine, ErrorsNameTheOption) {
   EXPECT_THROW(parse({"--robots", "3x"}, p), std::invalid_argument);
   EXPECT_THROW(parse({"--config"}, p), std::invalid_argument);
   EXPECT_THROW(parse({}, p, 1), std::invalid_argument);
+  EXPECT_THROW(parse({"a.log", "b.log"}, p, 1), std::invalid_argument);  // one too many
 }
 
 TEST(CommandLine, HelpStopsParsingAndListsOptions) {

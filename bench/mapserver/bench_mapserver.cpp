@@ -392,9 +392,6 @@ int main(int argc, char** argv) {
                  "comma list of `liloc_map build --json` reports (lidar=file) for map_ate_m");
   cli.add_option("json", &json_path, "result file ('' for none)");
   return run_program(cli, "bench_mapserver", argc, argv, [&]() -> int {
-    if (args.size() != 1) {
-      throw std::invalid_argument("expected MAP_DIR (see --help)");
-    }
     std::vector<Run> runs;
     for (const std::string& scale_text : split_list(scales_text)) {
       const int copies = std::stoi(scale_text);

@@ -41,11 +41,11 @@ void CommandLine::add_flag(const std::string& name, bool* value, const std::stri
 }
 
 void CommandLine::add_positional(const std::string& name, std::vector<std::string>* values,
-                                 const std::string& help, size_t required) {
+                                 const std::string& help, size_t count) {
   positional_name_ = name;
   positional_help_ = help;
   positional_ = values;
-  positional_required_ = required;
+  positional_count_ = count;
 }
 
 const CommandLine::Option* CommandLine::find(const std::string& name) const {
@@ -118,8 +118,12 @@ bool CommandLine::parse(int argc, const char* const* argv) {
     throw std::invalid_argument("unexpected argument '" + positional.front() + "'");
   }
   if (positional_ != nullptr) {
-    if (positional.size() < positional_required_) {
+    if (positional.size() < positional_count_) {
       throw std::invalid_argument("missing argument " + positional_name_ + " (see --help)");
+    }
+    if (positional_count_ > 0 && positional.size() > positional_count_) {
+      throw std::invalid_argument("expected " + positional_name_ + ", got " +
+                                  std::to_string(positional.size()) + " arguments (see --help)");
     }
     *positional_ = positional;
   }

@@ -20,9 +20,10 @@ class CommandLine {
   void add_option(const std::string& name, int* value, const std::string& help);
   // --name, sets *value to true.
   void add_flag(const std::string& name, bool* value, const std::string& help);
-  // Arguments without a leading "--", in order; `required` of them must be given.
+  // Arguments without a leading "--", in order: exactly `count` of them, or any number
+  // (none included) with count 0.
   void add_positional(const std::string& name, std::vector<std::string>* values,
-                      const std::string& help, size_t required);
+                      const std::string& help, size_t count);
 
   // Returns false after printing the usage if --help was given. Throws
   // std::invalid_argument naming the option on an unknown option, a missing or
@@ -48,7 +49,7 @@ class CommandLine {
   std::string positional_name_;
   std::string positional_help_;
   std::vector<std::string>* positional_ = nullptr;
-  size_t positional_required_ = 0;
+  size_t positional_count_ = 0;  // 0: any number
 };
 
 }  // namespace liloc

@@ -67,8 +67,6 @@ MapService::ReplyPlan MapService::plan(const SubmapQuery& query) {
   reply.query = query;
   reply.map_version = map_.version;
   reply.generation = generation_;
-  reply.reply_voxel_m = config_.reply_voxel_m;
-  reply.max_chunk_points = config_.max_chunk_points;
   for (const int64_t id : ids) {
     ReplyPlan::Item item;
     item.submap = *database_.submap(id);
@@ -110,7 +108,7 @@ std::vector<SubmapReplyPart> MapService::complete(ReplyPlan& reply) const {
   }
   for (ReplyPlan::Item& item : reply.items) {
     if (query.include_clouds && item.clouds.empty()) {
-      item.clouds = reply_clouds(item, reply.reply_voxel_m);
+      item.clouds = reply_clouds(item);
       item.computed = true;
     }
     // Chunks of whole keyframes, each under max_chunk_points.
@@ -122,7 +120,7 @@ std::vector<SubmapReplyPart> MapService::complete(ReplyPlan& reply) const {
       if (query.include_clouds) {
         const std::shared_ptr<const PointCloud>& c = item.clouds[k];
         if (!chunk.keyframes.empty() &&
-            points + static_cast<int64_t>(c->size()) > reply.max_chunk_points) {
+            points + static_cast<int64_t>(c->size()) > config_.max_chunk_points) {
           chunks.push_back(std::move(chunk));
           chunk = base();
           chunk.submap = item.submap;
@@ -147,7 +145,7 @@ std::vector<SubmapReplyPart> MapService::complete(ReplyPlan& reply) const {
   return parts;
 }
 
-SubmapClouds MapService::reply_clouds(const ReplyPlan::Item& item, double reply_voxel_m) const {
+SubmapClouds MapService::reply_clouds(const ReplyPlan::Item& item) const {
   if (store_ != nullptr) {
     if (std::optional<SubmapClouds> stored = store_->load(item.submap, item.keyframes)) {
       return std::move(*stored);
@@ -157,7 +155,7 @@ SubmapClouds MapService::reply_clouds(const ReplyPlan::Item& item, double reply_
   for (size_t k = 0; k < item.keyframes.size(); ++k) {
     full.push_back(item.sources[k] ? item.sources[k] : cloud_source_(item.keyframes[k].id));
   }
-  SubmapClouds out = deduplicate_submap_clouds(item.keyframes, full, reply_voxel_m);
+  SubmapClouds out = deduplicate_submap_clouds(item.keyframes, full, config_.reply_voxel_m);
   if (store_ != nullptr) {
     try {
       store_->save(item.submap, item.keyframes, out);

@@ -135,16 +135,14 @@ class MapService {
   struct ReplyPlan {
     struct Item {
       Submap submap;
-      std::vector<MapKeyframe> keyframes;                      // the submap's, in order
-      std::vector<std::shared_ptr<const PointCloud>> clouds;   // what the reply sends
-      std::vector<std::shared_ptr<const PointCloud>> sources;  // merged clouds, else null
+      std::vector<MapKeyframe> keyframes;  // the submap's, in order
+      SubmapClouds clouds;                 // what the reply sends
+      SubmapClouds sources;                // merged clouds, else null
       bool computed = false;
     };
     SubmapQuery query;
     int64_t map_version = 0;
     int64_t generation = 0;  // of the service's map when planned
-    double reply_voxel_m = 0.0;
-    int max_chunk_points = 0;
     std::vector<Item> items;
   };
   ReplyPlan plan(const SubmapQuery& query);
@@ -179,7 +177,7 @@ class MapService {
   std::optional<std::string> validate(const MapUpdatePart& part) const;
   UpdateOutcome merge(const std::string& robot_id, PendingUpdate& update);
   // The clouds a reply sends for a submap: stored, or else computed and stored.
-  SubmapClouds reply_clouds(const ReplyPlan::Item& item, double reply_voxel_m) const;
+  SubmapClouds reply_clouds(const ReplyPlan::Item& item) const;
 
   MapData map_;
   KeyframeCloudSource cloud_source_;

@@ -211,10 +211,6 @@ int main(int argc, char** argv) {
   cli.add_option("out", &out_prefix, "write PREFIX.md, .json, .png and .T_gt_est.txt");
 
   return run_program(cli, "liloc_eval", argc, argv, [&]() -> int {
-    if (files.size() != 2) {
-      throw std::invalid_argument("expected two arguments GT EST, got " +
-                                  std::to_string(files.size()));
-    }
     const std::string& gt_path = files[0];
     const std::string& est_path = files[1];
     if (!align.empty() && !align_file.empty()) {

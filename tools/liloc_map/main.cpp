@@ -41,18 +41,6 @@ namespace fs = std::filesystem;
 
 constexpr const char* kProgram = "liloc_map";
 
-// Positional arguments: exactly `names.size()` of them.
-void require_arguments(const std::vector<std::string>& args,
-                       const std::vector<std::string>& names) {
-  if (args.size() != names.size()) {
-    std::string expected;
-    for (const std::string& name : names) {
-      expected += " " + name;
-    }
-    throw std::invalid_argument("expected" + expected + " (see --help)");
-  }
-}
-
 // Calls visit(keyframe, cloud_body) for each keyframe of the map, in id order, one cloud
 // in memory at a time.
 template <class Visit>
@@ -96,7 +84,6 @@ int inspect(int argc, const char* const* argv) {
                   "keyframe cloud (checksum-verified).");
   cli.add_positional("DIR", &args, "the map directory", 1);
   return run_program(cli, kProgram, argc, argv, [&]() -> int {
-    require_arguments(args, {"DIR"});
     storage::MapStore store(args[0]);
     const MapData map = store.load();
     const storage::MapManifest manifest = store.manifest();
@@ -182,7 +169,6 @@ int validate(int argc, const char* const* argv) {
                   "consistency) and every keyframe file in full. Exit status 0 if intact.");
   cli.add_positional("DIR", &args, "the map directory", 1);
   return run_program(cli, kProgram, argc, argv, [&]() -> int {
-    require_arguments(args, {"DIR"});
     const auto start = std::chrono::steady_clock::now();
     storage::MapStore store(args[0]);
     const MapData map = store.load();
@@ -208,7 +194,6 @@ int export_cloud(int argc, const char* const* argv) {
   cli.add_positional("DIR OUT.pcd", &args, "the map directory and the PCD to write", 2);
   cli.add_option("voxel-m", &voxel_m, "voxel edge, metres; 0 keeps every point");
   return run_program(cli, kProgram, argc, argv, [&]() -> int {
-    require_arguments(args, {"DIR", "OUT.pcd"});
     if (!(voxel_m >= 0.0)) {
       throw std::invalid_argument("--voxel-m must be >= 0");
     }
@@ -268,7 +253,6 @@ int render(int argc, const char* const* argv) {
   cli.add_option("px-per-m", &config.px_per_m, "image resolution, pixels per metre");
   cli.add_flag("grey", &grey, "grey points instead of height colours");
   return run_program(cli, kProgram, argc, argv, [&]() -> int {
-    require_arguments(args, {"DIR", "OUT.png"});
     config.height_colours = !grey;
     storage::MapStore store(args[0]);
     const MapData map = store.load();
@@ -300,7 +284,6 @@ int prune(int argc, const char* const* argv) {
   cli.add_option("keep", &keep, "versions to keep, the current one included");
   cli.add_option("config", &config_path, "system config (map_server.service.reply_voxel_m)");
   return run_program(cli, kProgram, argc, argv, [&]() -> int {
-    require_arguments(args, {"DIR"});
     const SystemConfig config = load_config<SystemConfig>(config_path);
     storage::MapStore store(args[0]);
     const storage::PruneResult result = store.prune(keep);

@@ -160,9 +160,6 @@ int build_map(int argc, const char* const* argv) {
   cli.add_option("map-id", &map_id, "the map's id");
   cli.add_flag("no-loops", &no_loops, "odometry only: do not close loops");
   return run_program(cli, "liloc_map", argc, argv, [&]() -> int {
-    if (args.size() != 2) {
-      throw std::invalid_argument("expected LOG OUT_DIR (see --help)");
-    }
     const SystemConfig config = load_config<SystemConfig>(config_path);
     require_new_map_directory(args[1]);
     std::optional<Trajectory> ground_truth;

@@ -62,9 +62,6 @@ int build_map_from_poses(int argc, const char* const* argv) {
   cli.add_option("config", &config_path, "system config (YAML)");
   cli.add_option("map-id", &map_id, "the map's id");
   return run_program(cli, kProgram, argc, argv, [&]() -> int {
-    if (args.size() != 2) {
-      throw std::invalid_argument("expected DATASET OUT_DIR (see --help)");
-    }
     const SystemConfig config = load_config<SystemConfig>(config_path);
     require_new_map_directory(args[1]);
     std::unique_ptr<dataset::SensorDatasetReader> reader =
@@ -145,9 +142,6 @@ int build_map_from_pcd(int argc, const char* const* argv) {
   cli.add_option("config", &config_path, "system config (YAML)");
   cli.add_option("map-id", &map_id, "the map's id");
   return run_program(cli, kProgram, argc, argv, [&]() -> int {
-    if (args.size() != 2) {
-      throw std::invalid_argument("expected MAP_PCD OUT_DIR (see --help)");
-    }
     if (!(cell_m > 0) || !(radius_m >= cell_m)) {
       throw std::invalid_argument("need cell-m > 0 and radius-m >= cell-m");
     }
