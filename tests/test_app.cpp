@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <mutex>
 #include <stdexcept>
 #include <string>
@@ -11,7 +12,7 @@
 #include "app/command_line.hpp"
 #include "app/process_memory.hpp"
 #include "app/program.hpp"
-#include "app/serial_worker.hpp"
+#include "app/worker_pool.hpp"
 
 namespace liloc {
 namespace {
@@ -109,14 +110,14 @@ TEST(SplitList, ItemsInOrderWithoutEmptyOnes) {
   EXPECT_EQ(split_list("1:10", ':'), (std::vector<std::string>{"1", "10"}));
 }
 
-// Jobs run in order on another thread; a throwing job does not stop the worker; on
-// destruction the queued jobs are finished or dropped as asked.
-TEST(SerialWorker, RunsJobsInOrderAndFinishesOrDropsTheQueue) {
+// One thread: jobs run in order on another thread; a throwing job does not stop the
+// worker; on destruction the queued jobs are finished or dropped as asked.
+TEST(WorkerPool, RunsJobsInOrderAndFinishesOrDropsTheQueue) {
   std::vector<int> done;
   std::mutex done_mutex;
   std::thread::id worker_thread;
   {
-    SerialWorker<int> worker(
+    WorkerPool<int> worker(
         [&](int& job) {
           if (job < 0) {
             throw std::runtime_error("bad job");
@@ -126,7 +127,7 @@ TEST(SerialWorker, RunsJobsInOrderAndFinishesOrDropsTheQueue) {
           worker_thread = std::this_thread::get_id();
           done.push_back(job);
         },
-        SerialWorker<int>::OnStop::kFinishQueued);
+        WorkerPool<int>::OnStop::kFinishQueued);
     for (int i = 0; i < 20; ++i) {
       worker.submit(i == 5 ? -1 : i);
     }
@@ -142,17 +143,43 @@ TEST(SerialWorker, RunsJobsInOrderAndFinishesOrDropsTheQueue) {
 
   std::atomic<int> ran{0};
   {
-    SerialWorker<int> worker(
+    WorkerPool<int> worker(
         [&](int&) {
           std::this_thread::sleep_for(std::chrono::milliseconds(20));
           ++ran;
         },
-        SerialWorker<int>::OnStop::kDropQueued);
+        WorkerPool<int>::OnStop::kDropQueued);
     for (int i = 0; i < 50; ++i) {
       worker.submit(i);
     }
   }
   EXPECT_LT(ran.load(), 50);
+}
+
+// Two threads run two jobs side by side: each job waits (up to 10 s) until both have
+// started, which only happens if they run at once.
+TEST(WorkerPool, RunsJobsSideBySideWithSeveralThreads) {
+  std::mutex mutex;
+  std::condition_variable both_started;
+  int started = 0;
+  std::atomic<int> met{0};
+  {
+    WorkerPool<int> pool(
+        [&](int&) {
+          std::unique_lock<std::mutex> lock(mutex);
+          ++started;
+          both_started.notify_all();
+          if (both_started.wait_for(lock, std::chrono::seconds(10), [&] { return started >= 2; })) {
+            ++met;
+          }
+        },
+        WorkerPool<int>::OnStop::kFinishQueued, 2);
+    pool.submit(1);
+    pool.submit(2);
+  }
+  EXPECT_EQ(met.load(), 2);
+  EXPECT_THROW(WorkerPool<int>([](int&) {}, WorkerPool<int>::OnStop::kDropQueued, 0),
+               std::invalid_argument);
 }
 
 TEST(ProcessMemory, GrowsWithAllocationsAndIsZeroForNoProcess) {

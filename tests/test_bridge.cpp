@@ -108,34 +108,26 @@ TEST(LcmConversions, ImuBatchRoundTripDropsNonFiniteSamples) {
   EXPECT_EQ(back[1].accel_mps2.z(), 11.8);
 }
 
-// Quantized clouds: within half a centimetre and 1/510 of the largest intensity; a cloud
-// too large for 1 cm steps in int16 gets coarser steps rather than wrapping around.
-TEST(LcmConversions, CompactCloudQuantizesWithinHalfAStep) {
+// compact_cloud_t carries a CompactCloud as it is; one that does not check out is refused.
+TEST(LcmConversions, CompactCloudRoundTripAndBadMessages) {
   PointCloud cloud;
-  cloud.push_back(Eigen::Vector3f(12.3456f, -98.7654f, 0.0049f), 0.0f);
+  cloud.push_back(Eigen::Vector3f(12.3456f, -98.7654f, 0.0049f), 7.0f);
   cloud.push_back(Eigen::Vector3f(-0.001f, 250.0f, -3.2f), 100.0f);
-  cloud.push_back(Eigen::Vector3f(1, 2, 3), kNaN);
-  const liloc::compact_cloud_t msg = to_compact_msg(cloud);
-  EXPECT_FLOAT_EQ(msg.resolution_m, 0.01f);
-  const PointCloud back = from_msg(msg);
-  ASSERT_EQ(back.size(), 3u);
-  for (size_t i = 0; i < 3; ++i) {
-    EXPECT_LE((back.points[i] - cloud.points[i]).cwiseAbs().maxCoeff(), 0.005f + 1e-5f);
-  }
-  EXPECT_NEAR(back.intensities[1], 100.0f, 1e-3f);
-  EXPECT_EQ(back.intensities[2], 0.0f);
-
-  PointCloud far;
-  far.push_back(Eigen::Vector3f(1000.0f, -1000.0f, 5.0f), 1.0f);
-  const liloc::compact_cloud_t coarse = to_compact_msg(far);
-  EXPECT_GT(coarse.resolution_m, 0.03f);
-  EXPECT_LE((from_msg(coarse).points[0] - far.points[0]).cwiseAbs().maxCoeff(),
-            coarse.resolution_m / 2 + 1e-3f);
-
-  far.push_back(Eigen::Vector3f(kNaN, 0, 0), 1.0f);
-  EXPECT_THROW(to_compact_msg(far), std::invalid_argument);
+  const CompactCloud compact = quantize(cloud);
+  const liloc::compact_cloud_t msg = to_msg(compact);
+  EXPECT_EQ(msg.num_points, 2);
+  const CompactCloud back = from_msg(msg);
+  EXPECT_EQ(back.resolution_m, compact.resolution_m);
+  EXPECT_EQ(back.intensity_scale, compact.intensity_scale);
+  EXPECT_EQ(back.x, compact.x);
+  EXPECT_EQ(back.y, compact.y);
+  EXPECT_EQ(back.z, compact.z);
+  EXPECT_EQ(back.intensity, compact.intensity);
   liloc::compact_cloud_t bad = msg;
   bad.resolution_m = 0.0f;
+  EXPECT_THROW(from_msg(bad), std::invalid_argument);
+  bad = msg;
+  bad.y.pop_back();
   EXPECT_THROW(from_msg(bad), std::invalid_argument);
 }
 
@@ -170,6 +162,7 @@ TEST(MapConversions, SubmapReplyRoundTripSplitsTheCloudsByKeyframe) {
   part.submap = Submap{};
   part.submap->id = 3;
   part.submap->keyframe_ids = {10, 11};
+  KeyframeClouds clouds;
   for (int k = 0; k < 2; ++k) {
     MapKeyframe kf;
     kf.id = 10 + k;
@@ -179,25 +172,32 @@ TEST(MapConversions, SubmapReplyRoundTripSplitsTheCloudsByKeyframe) {
     for (int i = 0; i < 3 + k; ++i) {
       cloud->push_back(Eigen::Vector3f(i, k, 1), static_cast<float>(i));
     }
-    part.clouds.push_back(cloud);
+    clouds.push_back(cloud);
   }
+  part.clouds = deduplicate_submap_clouds(part.keyframes, clouds, 0.0);
   liloc::submap_t msg = to_msg(part, 5);
   const SubmapReplyPart back = from_msg(msg);
   ASSERT_TRUE(back.submap);
   EXPECT_EQ(back.submap->id, 3);
   ASSERT_EQ(back.keyframes.size(), 2u);
-  ASSERT_EQ(back.clouds.size(), 2u);
+  ASSERT_TRUE(back.clouds);
+  ASSERT_EQ(back.clouds->keyframes(), 2u);
   EXPECT_EQ(back.keyframes[1].id, 11);
   EXPECT_TRUE(back.keyframes[1].T_map_body.isApprox(part.keyframes[1].T_map_body));
-  for (int k = 0; k < 2; ++k) {
-    ASSERT_EQ(back.clouds[k]->size(), part.clouds[k]->size());
-    for (size_t i = 0; i < part.clouds[k]->size(); ++i) {
-      EXPECT_LT((back.clouds[k]->points[i] - part.clouds[k]->points[i]).norm(), 0.01);
-      EXPECT_NEAR(back.clouds[k]->intensities[i], part.clouds[k]->intensities[i], 0.01);
+  for (size_t k = 0; k < 2; ++k) {
+    const PointCloud cloud = back.clouds->keyframe_cloud(k);
+    ASSERT_EQ(cloud.size(), clouds[k]->size());
+    for (size_t i = 0; i < cloud.size(); ++i) {
+      EXPECT_LT((cloud.points[i] - clouds[k]->points[i]).norm(), 0.01);
+      EXPECT_NEAR(cloud.intensities[i], clouds[k]->intensities[i], 0.01);
     }
   }
   msg.cloud_offsets[1] = 99;  // beyond the cloud
   EXPECT_THROW(from_msg(msg), std::invalid_argument);
+  msg.cloud_offsets[1] = -1;
+  EXPECT_THROW(from_msg(msg), std::invalid_argument);
+  part.keyframes.pop_back();  // clouds of two keyframes for one
+  EXPECT_THROW(to_msg(part, 5), std::invalid_argument);
 }
 
 TEST(PclConversions, RoundTripAndInvalidPoints) {

@@ -259,7 +259,7 @@ TEST(MapService, AnswersByPositionAndById) {
   EXPECT_EQ(parts[0].robot_id, "r1");
   EXPECT_EQ(parts[0].request_id, 5);
   EXPECT_EQ(parts[0].keyframes.size(), 20u);
-  EXPECT_EQ(parts[0].clouds.size(), 20u);
+  EXPECT_EQ(parts[0].clouds->keyframes(), 20u);
   q.by_id = true;
   q.submap_ids = {0, 1, 77};
   q.include_clouds = false;
@@ -268,7 +268,7 @@ TEST(MapService, AnswersByPositionAndById) {
   EXPECT_EQ(by_id[1].submap->id, 1);
   EXPECT_EQ(by_id[1].reply_index, 1);
   EXPECT_EQ(by_id[1].reply_count, 2);
-  EXPECT_TRUE(by_id[0].clouds.empty());
+  EXPECT_FALSE(by_id[0].clouds);
   q.submap_ids = {77};
   const auto none = s.answer(q);
   ASSERT_EQ(none.size(), 1u);
@@ -292,7 +292,7 @@ TEST(MapService, ChunksBigSubmapsIntoWholeKeyframes) {
     EXPECT_EQ(parts[i].num_chunks, 5);
     EXPECT_EQ(parts[i].reply_count, 5);
     EXPECT_LE(parts[i].keyframes.size(), 4u);
-    EXPECT_EQ(parts[i].keyframes.size(), parts[i].clouds.size());
+    EXPECT_EQ(parts[i].keyframes.size(), parts[i].clouds->keyframes());
     keyframes += parts[i].keyframes.size();
   }
   EXPECT_EQ(keyframes, 20u);
@@ -331,9 +331,9 @@ TEST(MapService, SendsEachMapVoxelOnceAndCachesIt) {
   std::set<std::tuple<int, int, int>> voxels;
   size_t points = 0;
   for (const SubmapReplyPart& part : parts) {
-    ASSERT_EQ(part.keyframes.size(), part.clouds.size());
+    ASSERT_EQ(part.keyframes.size(), part.clouds->keyframes());
     for (size_t k = 0; k < part.keyframes.size(); ++k) {
-      for (const Eigen::Vector3f& p : part.clouds[k]->points) {
+      for (const Eigen::Vector3f& p : part.clouds->keyframe_cloud(k).points) {
         const Eigen::Vector3f q_map = (part.keyframes[k].T_map_body.cast<float>() * p);
         const Eigen::Vector3i v = (q_map / 0.3f).array().floor().cast<int>();
         EXPECT_TRUE(voxels.insert({v.x(), v.y(), v.z()}).second) << "a voxel sent twice";
@@ -379,10 +379,10 @@ TEST(MapService, KeepsDeduplicatedCloudsInTheStoreAcrossServices) {
   EXPECT_EQ(f.cloud_loads, loads);
   ASSERT_EQ(first.size(), second.size());
   for (size_t i = 0; i < first.size(); ++i) {
-    ASSERT_EQ(first[i].clouds.size(), second[i].clouds.size());
-    for (size_t k = 0; k < first[i].clouds.size(); ++k) {
-      EXPECT_EQ(first[i].clouds[k]->points, second[i].clouds[k]->points);
-    }
+    ASSERT_TRUE(first[i].clouds && second[i].clouds);
+    EXPECT_EQ(first[i].clouds->offsets, second[i].clouds->offsets);
+    EXPECT_EQ(first[i].clouds->cloud.x, second[i].clouds->cloud.x);
+    EXPECT_EQ(first[i].clouds->cloud.intensity, second[i].clouds->cloud.intensity);
   }
   EXPECT_EQ(again.store_errors(), 0);
 
@@ -415,7 +415,7 @@ TEST(MapService, MergesACompleteUpdateIntoNewSubmaps) {
   const auto parts = s.answer(q);
   ASSERT_TRUE(parts[0].submap);
   EXPECT_EQ(parts[0].submap->id, 3);
-  EXPECT_EQ(parts[0].clouds.size(), 20u);
+  EXPECT_EQ(parts[0].clouds->keyframes(), 20u);
   EXPECT_EQ(s.take_new_clouds().size(), 30u);
   EXPECT_TRUE(s.take_new_clouds().empty());
   // Once saved, replies name the version on disk (the clouds come from storage then).

@@ -1,5 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <stdexcept>
+
+#include "pointcloud/compact_cloud.hpp"
 #include "pointcloud/voxel_grid.hpp"
 #include "pointcloud/voxel_index_table.hpp"
 
@@ -66,6 +70,64 @@ TEST(VoxelIndexTable, GivesDenseIndicesInInsertionOrderAndGrows) {
   EXPECT_EQ(table.size(), 2u);
   EXPECT_EQ(table.find(43), 1u);
   EXPECT_EQ(table.find(7919), VoxelIndexTable::kMissing);
+}
+
+// Quantized clouds: within half a centimetre and 1/510 of the largest intensity; a cloud
+// too large for 1 cm steps in int16 gets coarser steps rather than wrapping around.
+TEST(CompactCloud, QuantizesWithinHalfAStep) {
+  const float nan = std::nanf("");
+  PointCloud cloud;
+  cloud.push_back(Eigen::Vector3f(12.3456f, -98.7654f, 0.0049f), 0.0f);
+  cloud.push_back(Eigen::Vector3f(-0.001f, 250.0f, -3.2f), 100.0f);
+  cloud.push_back(Eigen::Vector3f(1, 2, 3), nan);
+  const CompactCloud compact = quantize(cloud);
+  EXPECT_FLOAT_EQ(compact.resolution_m, 0.01f);
+  const PointCloud back = dequantize(compact);
+  ASSERT_EQ(back.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) {
+    EXPECT_LE((back.points[i] - cloud.points[i]).cwiseAbs().maxCoeff(), 0.005f + 1e-5f);
+  }
+  EXPECT_NEAR(back.intensities[1], 100.0f, 1e-3f);
+  EXPECT_EQ(back.intensities[2], 0.0f);
+
+  PointCloud far;
+  far.push_back(Eigen::Vector3f(1000.0f, -1000.0f, 5.0f), 1.0f);
+  const CompactCloud coarse = quantize(far);
+  EXPECT_GT(coarse.resolution_m, 0.03f);
+  EXPECT_LE((dequantize(coarse).points[0] - far.points[0]).cwiseAbs().maxCoeff(),
+            coarse.resolution_m / 2 + 1e-3f);
+  far.push_back(Eigen::Vector3f(nan, 0, 0), 1.0f);
+  EXPECT_THROW(quantize(far), std::invalid_argument);
+}
+
+// A slice keeps the steps, so that its points dequantize as they did in the whole cloud.
+TEST(CompactCloud, SliceKeepsStepsAndCheckNamesBadClouds) {
+  PointCloud cloud;
+  for (int i = 0; i < 5; ++i) {
+    cloud.push_back(Eigen::Vector3f(i * 100.0f, 0.5f, -i * 1.0f), static_cast<float>(i));
+  }
+  const CompactCloud compact = quantize(cloud);
+  const CompactCloud middle = slice(compact, 1, 4);
+  ASSERT_EQ(middle.size(), 3u);
+  EXPECT_EQ(middle.resolution_m, compact.resolution_m);
+  const PointCloud all = dequantize(compact);
+  const PointCloud part = dequantize(middle);
+  const PointCloud range = dequantize(compact, 1, 4);
+  for (size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(part.points[i], all.points[i + 1]);
+    EXPECT_EQ(range.points[i], all.points[i + 1]);
+    EXPECT_EQ(part.intensities[i], all.intensities[i + 1]);
+  }
+  EXPECT_NO_THROW(check_compact_cloud(compact));
+  CompactCloud bad = compact;
+  bad.resolution_m = 0.0f;
+  EXPECT_THROW(check_compact_cloud(bad), std::invalid_argument);
+  bad = compact;
+  bad.intensity_scale = std::nanf("");
+  EXPECT_THROW(check_compact_cloud(bad), std::invalid_argument);
+  bad = compact;
+  bad.z.pop_back();
+  EXPECT_THROW(check_compact_cloud(bad), std::invalid_argument);
 }
 
 }  // namespace

@@ -20,18 +20,30 @@ TEST(SystemConfig, TheShippedConfigLoads) {
   EXPECT_NO_THROW(config.odometry.validate());
 }
 
-TEST(SystemConfig, AMisspelledSectionIsAnError) {
-  const std::string path = ::testing::TempDir() + "liloc_system_typo.yaml";
-  {
-    std::ofstream out(path);
-    out << "odometry:\n  use_imu: true\nodometyr:\n  use_imu: false\n";
-  }
+// Loading `yaml` fails with a ConfigError whose message contains `expected`.
+void expect_config_error(const std::string& yaml, const std::string& expected) {
+  // One file per test: ctest runs tests side by side.
+  const std::string path = ::testing::TempDir() + "liloc_system_" +
+                           ::testing::UnitTest::GetInstance()->current_test_info()->name() +
+                           ".yaml";
+  std::ofstream(path) << yaml;
   try {
     load_config<SystemConfig>(path);
-    FAIL() << "a misspelled section loaded";
+    FAIL() << "loaded:\n" << yaml;
   } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("unknown key 'odometyr'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
   }
+}
+
+TEST(SystemConfig, AMisspelledSectionIsAnError) {
+  expect_config_error("odometry:\n  use_imu: true\nodometyr:\n  use_imu: false\n",
+                      "unknown key 'odometyr'");
+}
+
+// A bad value in the map server's section is an error naming the key, not a server that
+// starts without reply threads.
+TEST(SystemConfig, ABadMapServerValueNamesIt) {
+  expect_config_error("map_server:\n  reply_threads: 0\n", "reply_threads must be 1 to 64, got 0");
 }
 
 }  // namespace

@@ -3,10 +3,12 @@
 // the request rate while it drives along the map's path, and asks for a submap's clouds
 // when it enters that submap. Measured per map size (the map as given, and tiled N
 // times): reply latency from request to the last message of the reply, lost replies
-// (requests whose reply is incomplete 2 s after the run), and the server's memory.
-// Writes bench/results/mapserver.json with robots, requests_per_s, reply_ms_p50,
-// reply_ms_p99, lost_replies and server_rss_mb per run; map_ate_m comes from the
-// `liloc_map build --json` reports passed with --map-reports.
+// (requests whose reply is incomplete 2 s after the run), the server's own worst reply
+// times (MAP.STATUS), its memory, and the CPU time the hypervisor stole meanwhile. With
+// --echo-baseline each run is preceded by one against a stand-in that answers at once:
+// the machine's floor. Writes bench/results/mapserver.json with robots, requests_per_s,
+// reply_ms_p50, reply_ms_p99, lost_replies and server_rss_mb per run; map_ate_m comes
+// from the `liloc_map build --json` reports passed with --map-reports.
 
 #include <signal.h>
 #include <spdlog/spdlog.h>
@@ -31,6 +33,7 @@
 #include "config/yaml_config.hpp"
 #include "eval/json_writer.hpp"
 #include "eval/latency_stats.hpp"
+#include "liloc/status_t.hpp"
 #include "map/submap_database.hpp"
 #include "storage/map_store.hpp"
 #include "storage/submap_cloud_files.hpp"
@@ -129,6 +132,78 @@ pid_t start_server(const std::string& server, const std::string& config, const s
     throw std::runtime_error("fork failed");
   }
   return pid;
+}
+
+// A stand-in for the server that answers every request at once with one small message
+// (no submap, no clouds), on the robot's reply_url: what LCM request and reply cost on
+// this machine at this moment, the floor under the server's latency. Runs until SIGINT.
+void run_echo_server(const std::string& url) {
+  transport::TransportConfig config;
+  config.url = url;
+  transport::Transport bus(config);
+  std::map<std::string, std::unique_ptr<transport::Transport>> reply_buses;
+  bus.subscribe<liloc::submap_request_t>(
+      transport::ChannelConfig{}.map_request,
+      [&](const liloc::submap_request_t& msg, const transport::ReceiveInfo&) {
+        transport::Transport* reply_bus = &bus;
+        if (!msg.reply_url.empty()) {
+          std::unique_ptr<transport::Transport>& b = reply_buses[msg.reply_url];
+          if (!b) {
+            transport::TransportConfig reply_config;
+            reply_config.url = msg.reply_url;
+            b = std::make_unique<transport::Transport>(reply_config);
+          }
+          reply_bus = b.get();
+        }
+        SubmapReplyPart part;
+        part.robot_id = msg.header.robot_id;
+        part.request_id = msg.request_id;
+        part.reply_count = 1;
+        liloc::submap_t reply = bridge::to_msg(part, msg.header.utime);
+        reply_bus->publish(transport::robot_channel(part.robot_id, "SUBMAP"), reply);
+      });
+  while (!shutdown_requested()) {
+    bus.handle(100);
+  }
+}
+
+pid_t start_echo_server(const std::string& url) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    try {
+      run_echo_server(url);
+      ::_exit(0);
+    } catch (const std::exception& e) {
+      spdlog::error("echo server: {}", e.what());
+    }
+    ::_exit(1);
+  }
+  if (pid < 0) {
+    throw std::runtime_error("fork failed");
+  }
+  return pid;
+}
+
+// The machine's CPU time (/proc/stat): the share the hypervisor stole from this virtual
+// machine during a run, which moves latency tails here more than anything in liloc.
+struct CpuTimes {
+  int64_t steal = 0;
+  int64_t total = 0;
+};
+
+CpuTimes read_cpu_times() {
+  std::ifstream in("/proc/stat");
+  std::string cpu;
+  int64_t value = 0;
+  CpuTimes t;
+  in >> cpu;
+  for (int field = 0; field < 8 && in >> value; ++field) {
+    t.total += value;  // user nice system idle iowait irq softirq steal
+    if (field == 7) {
+      t.steal = value;
+    }
+  }
+  return t;
 }
 
 struct RobotResult {
@@ -261,7 +336,65 @@ class Robot {
   RobotResult result_;
 };
 
+// The server's own account (MAP.STATUS, once a second): the worst time from a request's
+// arrival to its reply's last message, per kind, over the run. Against the robots'
+// latency this tells the server's share from the transport's and the robots'.
+class ServerStatusListener {
+ public:
+  ServerStatusListener(const std::string& url, const std::string& channel) {
+    transport::TransportConfig config;
+    config.url = url;
+    bus_ = std::make_unique<transport::Transport>(config);
+    bus_->subscribe<liloc::status_t>(
+        channel, [this](const liloc::status_t& msg, const transport::ReceiveInfo&) {
+          for (int32_t i = 0; i < msg.num_timings; ++i) {
+            const double ms = msg.timing_ms[i];
+            if (msg.timing_names[i] == "position_reply_max") {
+              worst_position_ms_ = std::max(worst_position_ms_.load(), ms);
+            } else if (msg.timing_names[i] == "cloud_reply_max") {
+              worst_cloud_ms_ = std::max(worst_cloud_ms_.load(), ms);
+            }
+          }
+        });
+    thread_ = std::thread([this] {
+      while (!stop_) {
+        bus_->handle(50);
+      }
+    });
+  }
+  ~ServerStatusListener() {
+    stop_ = true;
+    thread_.join();
+  }
+  // Forgets what was seen so far (the warm-up before the run).
+  void reset() {
+    worst_position_ms_ = 0.0;
+    worst_cloud_ms_ = 0.0;
+  }
+  double worst_position_ms() const { return worst_position_ms_; }
+  double worst_cloud_ms() const { return worst_cloud_ms_; }
+
+ private:
+  std::unique_ptr<transport::Transport> bus_;
+  std::atomic<double> worst_position_ms_{0.0};
+  std::atomic<double> worst_cloud_ms_{0.0};
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+// What every run of the bench shares (its command line).
+struct BenchOptions {
+  std::string server_path = "build/bin/liloc_map_server";
+  std::string config_path = "config/liloc.yaml";
+  std::string url = "udpm://239.255.76.67:7691?ttl=0&recv_buf_size=4194304";
+  bool reply_groups = true;  // a multicast group per robot for its replies
+  int robots = 8;
+  double rate_hz = 10.0;
+  double duration_s = 60.0;
+};
+
 struct Run {
+  bool echo = false;  // the echo stand-in, not the server
   int map_copies = 1;
   size_t keyframes = 0;
   size_t submaps = 0;
@@ -272,6 +405,9 @@ struct Run {
   int64_t lost = 0;
   double mb_per_s = 0.0;
   ProcessMemory server;
+  double server_worst_position_ms = 0.0;  // MAP.STATUS
+  double server_worst_cloud_ms = 0.0;
+  double steal_percent = 0.0;  // of the machine's CPU time during the run
 };
 
 // `url` with its port replaced: "udpm://239.255.76.67:7691?ttl=0" -> ":7700?ttl=0".
@@ -290,22 +426,24 @@ int port_of(const std::string& url) {
   return std::stoi(url.substr(url.rfind(':', query) + 1));
 }
 
-Run run_once(const std::string& server_path, const std::string& config, const std::string& map_dir,
-             int copies, const std::string& url, bool reply_groups, int robots, double rate_hz,
-             double duration_s) {
+Run run_once(const BenchOptions& options, const std::string& map_dir, int copies, bool echo) {
+  const std::string& url = options.url;
   storage::MapStore store(map_dir);
   const MapData map = store.load();
   std::vector<Eigen::Vector3d> path;
   for (const MapKeyframe& kf : map.keyframes) {
     path.push_back(kf.T_map_body.translation());
   }
-  const pid_t server = start_server(server_path, config, map_dir, url);
+  const pid_t server = echo ? start_echo_server(url)
+                            : start_server(options.server_path, options.config_path, map_dir, url);
+  ServerStatusListener status(
+      url, load_config<SystemConfig>(options.config_path).map_server.status_channel);
   std::vector<std::unique_ptr<Robot>> fleet;
-  for (int r = 0; r < robots; ++r) {
+  for (int r = 0; r < options.robots; ++r) {
     // Each robot's replies on a group of its own (the next ports after the bus's).
-    const std::string reply_url = reply_groups ? with_port(url, port_of(url) + 1 + r) : "";
+    const std::string reply_url = options.reply_groups ? with_port(url, port_of(url) + 1 + r) : "";
     fleet.push_back(std::make_unique<Robot>("bench" + std::to_string(r), url, reply_url, path,
-                                            path.size() * static_cast<size_t>(r) / robots));
+                                            path.size() * static_cast<size_t>(r) / options.robots));
   }
   // The server is up when it answers.
   bool up = false;
@@ -318,24 +456,33 @@ Run run_once(const std::string& server_path, const std::string& config, const st
     throw std::runtime_error("liloc_map_server did not answer within 60 s on " + url);
   }
   std::vector<std::thread> threads;
+  status.reset();
+  const CpuTimes cpu_before = read_cpu_times();
   const Clock::time_point start = Clock::now();
   for (auto& robot : fleet) {
-    threads.emplace_back([&robot, rate_hz, duration_s] { robot->run(rate_hz, duration_s); });
+    threads.emplace_back([&robot, &options] { robot->run(options.rate_hz, options.duration_s); });
   }
   for (std::thread& t : threads) {
     t.join();
   }
   const double elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
+  const CpuTimes cpu_after = read_cpu_times();
   Run run;
+  run.echo = echo;
+  run.steal_percent = 100.0 * static_cast<double>(cpu_after.steal - cpu_before.steal) /
+                      static_cast<double>(std::max<int64_t>(1, cpu_after.total - cpu_before.total));
   run.server = read_process_memory(std::to_string(server));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // the last status
+  run.server_worst_position_ms = status.worst_position_ms();
+  run.server_worst_cloud_ms = status.worst_cloud_ms();
   ::kill(server, SIGINT);
   ::waitpid(server, nullptr, 0);
 
   run.map_copies = copies;
   run.keyframes = map.keyframes.size();
   run.submaps = map.submaps.size();
-  run.robots = robots;
-  run.reply_groups = reply_groups;
+  run.robots = options.robots;
+  run.reply_groups = options.reply_groups;
   std::vector<double> all, position, clouds;
   int64_t requests = 0, bytes = 0;
   for (const auto& robot : fleet) {
@@ -363,35 +510,38 @@ Run run_once(const std::string& server_path, const std::string& config, const st
 
 int main(int argc, char** argv) {
   std::vector<std::string> args;
-  std::string server_path = "build/bin/liloc_map_server";
-  std::string config_path = "config/liloc.yaml";
+  BenchOptions options;
   std::string scales_text = "1,10";
   std::string scratch = "data/bench_mapserver";
   std::string map_reports;
   std::string json_path = "bench/results/mapserver.json";
-  std::string url = "udpm://239.255.76.67:7691?ttl=0&recv_buf_size=4194304";
-  int robots = 8;
-  double rate_hz = 10.0;
-  double duration_s = 60.0;
   bool shared_group = false;
+  bool echo_baseline = false;
+  int repeats = 1;
   CommandLine cli("bench_mapserver",
                   "Robots requesting submaps from liloc_map_server over loopback: latency, "
                   "lost replies, server memory, for the map and a tiled bigger one.");
   cli.add_positional("MAP_DIR", &args, "a map directory (liloc_map build)", 1);
-  cli.add_option("server", &server_path, "the liloc_map_server binary");
-  cli.add_option("config", &config_path, "system config for the server");
+  cli.add_option("server", &options.server_path, "the liloc_map_server binary");
+  cli.add_option("config", &options.config_path, "system config for the server");
   cli.add_option("scales", &scales_text, "map sizes to run, as copies of MAP_DIR");
   cli.add_option("scratch", &scratch, "where tiled maps are written");
-  cli.add_option("robots", &robots, "concurrent robots");
-  cli.add_option("rate-hz", &rate_hz, "requests per robot per second");
-  cli.add_option("duration-s", &duration_s, "length of each run");
-  cli.add_option("lcm-url", &url, "LCM URL of the run (its own port; robots reply groups next)");
+  cli.add_option("robots", &options.robots, "concurrent robots");
+  cli.add_option("rate-hz", &options.rate_hz, "requests per robot per second");
+  cli.add_option("duration-s", &options.duration_s, "length of each run");
+  cli.add_option("repeats", &repeats, "runs of each map size, one after another");
+  cli.add_option("lcm-url", &options.url,
+                 "LCM URL of the run (its own port; robots reply groups next)");
   cli.add_flag("shared-group", &shared_group,
                "replies on the request bus, not on a multicast group per robot");
+  cli.add_flag("echo-baseline", &echo_baseline,
+               "before each run, the same robots against a stand-in that answers at once with "
+               "a small message: the machine's floor");
   cli.add_option("map-reports", &map_reports,
                  "comma list of `liloc_map build --json` reports (lidar=file) for map_ate_m");
   cli.add_option("json", &json_path, "result file ('' for none)");
   return run_program(cli, "bench_mapserver", argc, argv, [&]() -> int {
+    options.reply_groups = !shared_group;
     std::vector<Run> runs;
     for (const std::string& scale_text : split_list(scales_text)) {
       const int copies = std::stoi(scale_text);
@@ -403,25 +553,40 @@ int main(int argc, char** argv) {
         spdlog::info("writing the map tiled {}x to {}", copies, map_dir);
         in_child_process([&] { write_tiled_map(args[0], map_dir, copies); });
       }
-      in_child_process([&] { prepare_reply_clouds(map_dir, config_path); });
-      runs.push_back(run_once(server_path, config_path, map_dir, copies, url, !shared_group, robots,
-                              rate_hz, duration_s));
-      const Run& r = runs.back();
-      spdlog::info("{}x: {} requests/s, p99 {:.2f} ms, lost {}", copies, r.requests_per_s,
-                   r.all.p99_ms, r.lost);
+      in_child_process([&] { prepare_reply_clouds(map_dir, options.config_path); });
+      for (int repeat = 0; repeat < repeats; ++repeat) {
+        for (const bool echo : {true, false}) {
+          if (echo && !echo_baseline) {
+            continue;
+          }
+          runs.push_back(run_once(options, map_dir, copies, echo));
+          const Run& r = runs.back();
+          spdlog::info("{}x{}: {} requests/s, p99 {:.2f} ms, lost {}, steal {:.1f} %", copies,
+                       echo ? " echo" : "", r.requests_per_s, r.all.p99_ms, r.lost,
+                       r.steal_percent);
+        }
+      }
     }
 
     std::printf(
-        "| map | keyframes | submaps | robots | requests/s | reply ms p50 | p99 | max | "
-        "position p99 | clouds p99 | lost | MB/s | server RSS MB | server peak MB |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        "| map | answered by | robots | requests/s | reply ms p50 | p99 | max | position p99 | "
+        "clouds p99 | server worst position / clouds | lost | MB/s | server RSS MB | steal %% "
+        "|\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (const Run& r : runs) {
+      // The echo stand-in has no status and no memory of its own worth reporting.
+      char worst[64] = "-";
+      char rss[32] = "-";
+      if (!r.echo) {
+        std::snprintf(worst, sizeof(worst), "%.2f / %.2f", r.server_worst_position_ms,
+                      r.server_worst_cloud_ms);
+        std::snprintf(rss, sizeof(rss), "%.0f", r.server.rss_mb);
+      }
       std::printf(
-          "| %dx | %zu | %zu | %d | %.1f | %.2f | %.2f | %.2f | %.2f | %.2f | %lld | %.1f "
-          "| %.0f | %.0f |\n",
-          r.map_copies, r.keyframes, r.submaps, r.robots, r.requests_per_s, r.all.median_ms,
-          r.all.p99_ms, r.all.max_ms, r.position.p99_ms, r.clouds.p99_ms,
-          static_cast<long long>(r.lost), r.mb_per_s, r.server.rss_mb, r.server.peak_mb);
+          "| %dx (%zu keyframes, %zu submaps) | %s | %d | %.1f | %.2f | %.2f | %.2f | %.2f | "
+          "%.2f | %s | %lld | %.1f | %s | %.1f |\n",
+          r.map_copies, r.keyframes, r.submaps, r.echo ? "echo" : "liloc_map_server", r.robots,
+          r.requests_per_s, r.all.median_ms, r.all.p99_ms, r.all.max_ms, r.position.p99_ms,
+          r.clouds.p99_ms, worst, static_cast<long long>(r.lost), r.mb_per_s, rss, r.steal_percent);
     }
     if (json_path.empty()) {
       return 0;
@@ -451,6 +616,8 @@ int main(int argc, char** argv) {
     json.end_array().key("runs").begin_array();
     for (const Run& r : runs) {
       json.begin_object()
+          .key("answered_by")
+          .string(r.echo ? "echo" : "liloc_map_server")
           .key("map_copies")
           .integer(r.map_copies)
           .key("keyframes")
@@ -473,11 +640,19 @@ int main(int argc, char** argv) {
           .number(r.clouds.p99_ms)
           .key("lost_replies")
           .integer(r.lost)
-          .key("server_rss_mb")
-          .number(r.server.rss_mb)
-          .key("server_peak_rss_mb")
-          .number(r.server.peak_mb)
-          .end_object();
+          .key("steal_percent")
+          .number(r.steal_percent);
+      if (!r.echo) {
+        json.key("server_position_reply_ms_max")
+            .number(r.server_worst_position_ms)
+            .key("server_cloud_reply_ms_max")
+            .number(r.server_worst_cloud_ms)
+            .key("server_rss_mb")
+            .number(r.server.rss_mb)
+            .key("server_peak_rss_mb")
+            .number(r.server.peak_mb);
+      }
+      json.end_object();
     }
     json.end_array().end_object();
     fs::create_directories(fs::path(json_path).parent_path());

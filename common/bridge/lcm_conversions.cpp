@@ -99,57 +99,30 @@ PointCloud from_msg(const liloc::point_cloud_t& msg, size_t* non_finite) {
   return cloud;
 }
 
-liloc::compact_cloud_t to_compact_msg(const PointCloud& cloud, float resolution_m) {
-  constexpr float kMaxSteps = 32767.0f;  // int16
-  float extent = 0.0f;
-  float max_intensity = 0.0f;
-  for (size_t i = 0; i < cloud.size(); ++i) {
-    if (!cloud.points[i].allFinite()) {
-      throw std::invalid_argument("compact cloud: point " + std::to_string(i) + " is not finite");
-    }
-    extent = std::max(extent, cloud.points[i].cwiseAbs().maxCoeff());
-    if (std::isfinite(cloud.intensities[i])) {
-      max_intensity = std::max(max_intensity, cloud.intensities[i]);
-    }
-  }
+liloc::compact_cloud_t to_msg(const CompactCloud& cloud) {
   liloc::compact_cloud_t msg;
-  // The extent must round inside int16: one step of margin.
-  msg.resolution_m = std::max(resolution_m, extent / (kMaxSteps - 1.0f));
-  msg.intensity_scale = max_intensity > 0.0f ? max_intensity / 255.0f : 1.0f;
-  const size_t n = cloud.size();
-  msg.num_points = static_cast<int32_t>(n);
-  msg.x.resize(n);
-  msg.y.resize(n);
-  msg.z.resize(n);
-  msg.intensity.resize(n);
-  const float to_steps = 1.0f / msg.resolution_m;
-  const float to_byte = 1.0f / msg.intensity_scale;
-  // Round half away from zero, inline: std::lround is a library call per coordinate, the
-  // largest cost of encoding a submap reply.
-  const auto round = [](float v) { return static_cast<int32_t>(v >= 0.0f ? v + 0.5f : v - 0.5f); };
-  for (size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3f& p = cloud.points[i];
-    msg.x[i] = static_cast<int16_t>(round(p.x() * to_steps));
-    msg.y[i] = static_cast<int16_t>(round(p.y() * to_steps));
-    msg.z[i] = static_cast<int16_t>(round(p.z() * to_steps));
-    const float intensity = std::isfinite(cloud.intensities[i]) ? cloud.intensities[i] : 0.0f;
-    msg.intensity[i] = static_cast<uint8_t>(std::clamp(round(intensity * to_byte), 0, 255));
-  }
+  msg.resolution_m = cloud.resolution_m;
+  msg.intensity_scale = cloud.intensity_scale;
+  msg.num_points = static_cast<int32_t>(cloud.size());
+  msg.x = cloud.x;
+  msg.y = cloud.y;
+  msg.z = cloud.z;
+  msg.intensity = cloud.intensity;
   return msg;
 }
 
-PointCloud from_msg(const liloc::compact_cloud_t& msg) {
-  if (!(std::isfinite(msg.resolution_m) && msg.resolution_m > 0.0f) ||
-      !(std::isfinite(msg.intensity_scale) && msg.intensity_scale > 0.0f)) {
-    throw std::invalid_argument("compact cloud: resolution " + std::to_string(msg.resolution_m) +
-                                " m or intensity scale " + std::to_string(msg.intensity_scale) +
-                                " is not positive");
-  }
-  PointCloud cloud;
-  cloud.reserve(static_cast<size_t>(msg.num_points));
-  for (int32_t i = 0; i < msg.num_points; ++i) {
-    cloud.push_back(Eigen::Vector3f(msg.x[i], msg.y[i], msg.z[i]) * msg.resolution_m,
-                    msg.intensity[i] * msg.intensity_scale);
+CompactCloud from_msg(const liloc::compact_cloud_t& msg) {
+  CompactCloud cloud;
+  cloud.resolution_m = msg.resolution_m;
+  cloud.intensity_scale = msg.intensity_scale;
+  cloud.x = msg.x;
+  cloud.y = msg.y;
+  cloud.z = msg.z;
+  cloud.intensity = msg.intensity;
+  check_compact_cloud(cloud);
+  if (cloud.size() != static_cast<size_t>(std::max(msg.num_points, 0))) {
+    throw std::invalid_argument("compact cloud: " + std::to_string(cloud.size()) +
+                                " points, num_points " + std::to_string(msg.num_points));
   }
   return cloud;
 }

@@ -18,6 +18,7 @@
 #include "liloc/point_cloud_t.hpp"
 #include "liloc/pose3_t.hpp"
 #include "math/se3.hpp"
+#include "pointcloud/compact_cloud.hpp"
 #include "pointcloud/point_cloud.hpp"
 
 namespace liloc::bridge {
@@ -37,12 +38,11 @@ liloc::point_cloud_t to_msg(const PointCloud& cloud);
 // Points with a non-finite coordinate are dropped and counted in *non_finite.
 PointCloud from_msg(const liloc::point_cloud_t& msg, size_t* non_finite = nullptr);
 
-// Quantized (compact_cloud_t): coordinates to `resolution_m`, coarser only where the
-// cloud's extent needs it; intensities to 1/255 of the largest. Points with a non-finite
-// coordinate must not be given (std::invalid_argument).
-liloc::compact_cloud_t to_compact_msg(const PointCloud& cloud, float resolution_m = 0.01f);
-// Throws std::invalid_argument for a resolution or scale that is not positive and finite.
-PointCloud from_msg(const liloc::compact_cloud_t& msg);
+// compact_cloud_t <-> CompactCloud: copies, the quantization is done (quantize()).
+liloc::compact_cloud_t to_msg(const CompactCloud& cloud);
+// Throws std::invalid_argument for a resolution or scale that is not positive and finite,
+// or arrays that disagree with num_points.
+CompactCloud from_msg(const liloc::compact_cloud_t& msg);
 
 liloc::lidar_scan_t to_msg(const LidarScan& scan, const std::string& robot_id,
                            const std::string& frame_id, const std::string& sensor_model);

@@ -131,11 +131,17 @@ liloc::submap_t to_msg(const SubmapReplyPart& part, int64_t utime) {
     msg.keyframe_poses.push_back(to_msg(kf.T_map_body));
     msg.keyframe_fitness.push_back(static_cast<float>(kf.fitness_m));
   }
-  if (part.clouds.empty()) {
-    msg.cloud_offsets.assign(part.keyframes.size(), 0);
-    msg.cloud = to_compact_msg(PointCloud{});
+  if (part.clouds) {
+    if (part.clouds->keyframes() != part.keyframes.size()) {
+      throw std::invalid_argument("reply part: clouds of " +
+                                  std::to_string(part.clouds->keyframes()) + " keyframes for " +
+                                  std::to_string(part.keyframes.size()));
+    }
+    msg.cloud_offsets.assign(part.clouds->offsets.begin(), part.clouds->offsets.end() - 1);
+    msg.cloud = to_msg(part.clouds->cloud);
   } else {
-    msg.cloud = to_compact_msg(concatenate(part.clouds, msg.cloud_offsets));
+    msg.cloud_offsets.assign(part.keyframes.size(), 0);
+    msg.cloud = to_msg(CompactCloud{});
   }
   return msg;
 }
@@ -168,9 +174,17 @@ SubmapReplyPart from_msg(const liloc::submap_t& msg) {
     }
   }
   if (msg.cloud.num_points > 0) {
-    for (PointCloud& c : split(from_msg(msg.cloud), msg.cloud_offsets)) {
-      part.clouds.push_back(std::make_shared<const PointCloud>(std::move(c)));
+    SubmapClouds clouds;
+    clouds.cloud = from_msg(msg.cloud);
+    clouds.offsets.assign(msg.cloud_offsets.begin(), msg.cloud_offsets.end());
+    clouds.offsets.push_back(static_cast<uint32_t>(clouds.cloud.size()));
+    for (size_t k = 0; k < msg.cloud_offsets.size(); ++k) {
+      if (msg.cloud_offsets[k] < 0 || clouds.offsets[k] > clouds.offsets[k + 1]) {
+        throw std::invalid_argument("cloud_offsets do not fit the cloud of " +
+                                    std::to_string(clouds.cloud.size()) + " points");
+      }
     }
+    part.clouds = std::move(clouds);
   }
   return part;
 }

@@ -81,7 +81,7 @@ liloc::point_cloud_t make_sample<liloc::point_cloud_t>(const std::string&) {
 
 template <>
 liloc::compact_cloud_t make_sample<liloc::compact_cloud_t>(const std::string&) {
-  return to_compact_msg(sample_cloud(8));
+  return to_msg(quantize(sample_cloud(8)));
 }
 
 template <>
@@ -162,7 +162,7 @@ liloc::submap_t make_sample<liloc::submap_t>(const std::string& robot_id) {
   m.keyframe_poses = {sample_pose(5.0), sample_pose(6.0)};
   m.keyframe_fitness = {0.04f, 0.05f};
   m.cloud_offsets = {0, 4};
-  m.cloud = to_compact_msg(sample_cloud(9));
+  m.cloud = to_msg(quantize(sample_cloud(9)));
   return m;
 }
 

@@ -77,6 +77,10 @@ MapService::ReplyPlan MapService::plan(const SubmapQuery& query) {
       const auto cached = reply_clouds_.find(id);
       if (cached != reply_clouds_.end()) {
         item.clouds = cached->second;
+        // Least recently used goes first.
+        reply_clouds_order_.erase(
+            std::find(reply_clouds_order_.begin(), reply_clouds_order_.end(), id));
+        reply_clouds_order_.push_back(id);
       } else {
         // Merged clouds not yet saved live here; the others come from the cloud source.
         for (const int64_t kf_id : item.submap.keyframe_ids) {
@@ -107,31 +111,33 @@ std::vector<SubmapReplyPart> MapService::complete(ReplyPlan& reply) const {
     return parts;
   }
   for (ReplyPlan::Item& item : reply.items) {
-    if (query.include_clouds && item.clouds.empty()) {
+    if (query.include_clouds && !item.clouds) {
       item.clouds = reply_clouds(item);
       item.computed = true;
     }
-    // Chunks of whole keyframes, each under max_chunk_points.
+    // Chunks of whole keyframes [first, end), each under max_chunk_points.
     std::vector<SubmapReplyPart> chunks;
-    SubmapReplyPart chunk = base();
-    chunk.submap = item.submap;
+    const auto add_chunk = [&](size_t first, size_t end) {
+      SubmapReplyPart& chunk = chunks.emplace_back(base());
+      chunk.submap = item.submap;
+      chunk.keyframes.assign(item.keyframes.begin() + static_cast<ptrdiff_t>(first),
+                             item.keyframes.begin() + static_cast<ptrdiff_t>(end));
+      if (query.include_clouds) {
+        chunk.clouds = item.clouds->keyframe_range(first, end);
+      }
+    };
+    size_t first = 0;
     int64_t points = 0;
     for (size_t k = 0; k < item.keyframes.size(); ++k) {
-      if (query.include_clouds) {
-        const std::shared_ptr<const PointCloud>& c = item.clouds[k];
-        if (!chunk.keyframes.empty() &&
-            points + static_cast<int64_t>(c->size()) > config_.max_chunk_points) {
-          chunks.push_back(std::move(chunk));
-          chunk = base();
-          chunk.submap = item.submap;
-          points = 0;
-        }
-        points += static_cast<int64_t>(c->size());
-        chunk.clouds.push_back(c);
+      const auto n = query.include_clouds ? static_cast<int64_t>(item.clouds->points_of(k)) : 0;
+      if (k > first && points + n > config_.max_chunk_points) {
+        add_chunk(first, k);
+        first = k;
+        points = 0;
       }
-      chunk.keyframes.push_back(item.keyframes[k]);
+      points += n;
     }
-    chunks.push_back(std::move(chunk));
+    add_chunk(first, item.keyframes.size());
     for (size_t i = 0; i < chunks.size(); ++i) {
       chunks[i].chunk_index = static_cast<int>(i);
       chunks[i].num_chunks = static_cast<int>(chunks.size());
@@ -145,20 +151,21 @@ std::vector<SubmapReplyPart> MapService::complete(ReplyPlan& reply) const {
   return parts;
 }
 
-SubmapClouds MapService::reply_clouds(const ReplyPlan::Item& item) const {
+std::shared_ptr<const SubmapClouds> MapService::reply_clouds(const ReplyPlan::Item& item) const {
   if (store_ != nullptr) {
     if (std::optional<SubmapClouds> stored = store_->load(item.submap, item.keyframes)) {
-      return std::move(*stored);
+      return std::make_shared<const SubmapClouds>(std::move(*stored));
     }
   }
-  SubmapClouds full;
+  KeyframeClouds full;
   for (size_t k = 0; k < item.keyframes.size(); ++k) {
     full.push_back(item.sources[k] ? item.sources[k] : cloud_source_(item.keyframes[k].id));
   }
-  SubmapClouds out = deduplicate_submap_clouds(item.keyframes, full, config_.reply_voxel_m);
+  auto out = std::make_shared<const SubmapClouds>(
+      deduplicate_submap_clouds(item.keyframes, full, config_.reply_voxel_m));
   if (store_ != nullptr) {
     try {
-      store_->save(item.submap, item.keyframes, out);
+      store_->save(item.submap, item.keyframes, *out);
     } catch (const std::exception&) {
       ++store_errors_;  // the reply does not need it; the next request tries again
     }

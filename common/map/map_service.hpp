@@ -32,7 +32,7 @@ struct MapServiceConfig {
   // keyframe clouds, which overlap ~3x). The deduplicated clouds of a submap are computed
   // once and kept in the SubmapCloudStore given to the service, if any.
   double reply_voxel_m = 0.3;
-  int reply_cache_submaps = 64;             // submaps' reply clouds kept in memory
+  int reply_cache_submaps = 64;             // submaps' reply clouds kept in memory (~0.5 MB each)
   std::vector<std::string> allowed_robots;  // updates from other robots are refused; empty: any
   int max_update_keyframes = 1000;
   int64_t max_update_points = 20000000;
@@ -76,8 +76,8 @@ struct SubmapReplyPart {
   std::optional<Submap> submap;  // none: the request matched nothing
   int chunk_index = 0;
   int num_chunks = 0;
-  std::vector<MapKeyframe> keyframes;                     // this chunk's
-  std::vector<std::shared_ptr<const PointCloud>> clouds;  // body frame; empty without clouds
+  std::vector<MapKeyframe> keyframes;  // this chunk's
+  std::optional<SubmapClouds> clouds;  // of these keyframes; none without clouds
 };
 
 struct UpdateKeyframe {
@@ -135,9 +135,9 @@ class MapService {
   struct ReplyPlan {
     struct Item {
       Submap submap;
-      std::vector<MapKeyframe> keyframes;  // the submap's, in order
-      SubmapClouds clouds;                 // what the reply sends
-      SubmapClouds sources;                // merged clouds, else null
+      std::vector<MapKeyframe> keyframes;          // the submap's, in order
+      std::shared_ptr<const SubmapClouds> clouds;  // what the reply sends
+      KeyframeClouds sources;                      // merged clouds, else null
       bool computed = false;
     };
     SubmapQuery query;
@@ -177,7 +177,7 @@ class MapService {
   std::optional<std::string> validate(const MapUpdatePart& part) const;
   UpdateOutcome merge(const std::string& robot_id, PendingUpdate& update);
   // The clouds a reply sends for a submap: stored, or else computed and stored.
-  SubmapClouds reply_clouds(const ReplyPlan::Item& item) const;
+  std::shared_ptr<const SubmapClouds> reply_clouds(const ReplyPlan::Item& item) const;
 
   MapData map_;
   KeyframeCloudSource cloud_source_;
@@ -190,8 +190,8 @@ class MapService {
   std::set<std::pair<std::string, int64_t>> finished_;  // merged or rejected: repeats ignored
   std::map<int64_t, std::shared_ptr<const PointCloud>> merged_clouds_;  // until saved
   std::map<int64_t, PointCloud> unsaved_clouds_;
-  std::map<int64_t, std::vector<std::shared_ptr<const PointCloud>>> reply_clouds_;
-  std::deque<int64_t> reply_clouds_order_;  // oldest first
+  std::map<int64_t, std::shared_ptr<const SubmapClouds>> reply_clouds_;
+  std::deque<int64_t> reply_clouds_order_;  // least recently used first
   int64_t generation_ = 0;                  // +1 on every change of the map
 };
 

@@ -5,28 +5,35 @@
 
 namespace liloc {
 
-SubmapClouds deduplicate_submap_clouds(const std::vector<MapKeyframe>& keyframes,
-                                       const SubmapClouds& clouds, double voxel_m) {
-  if (voxel_m <= 0.0) {
-    return clouds;
-  }
+SubmapClouds SubmapClouds::keyframe_range(size_t first, size_t end) const {
   SubmapClouds out;
-  out.reserve(keyframes.size());
+  out.cloud = slice(cloud, offsets[first], offsets[end]);
+  out.offsets.clear();
+  for (size_t k = first; k <= end; ++k) {
+    out.offsets.push_back(offsets[k] - offsets[first]);
+  }
+  return out;
+}
+
+SubmapClouds deduplicate_submap_clouds(const std::vector<MapKeyframe>& keyframes,
+                                       const KeyframeClouds& clouds, double voxel_m) {
   const float voxel = static_cast<float>(voxel_m);
   VoxelIndexTable seen(1 << 16);
+  PointCloud kept;
+  std::vector<uint32_t> offsets{0};
   for (size_t k = 0; k < keyframes.size(); ++k) {
     const PointCloud& full = *clouds[k];
     const Eigen::Affine3f T_map_body(keyframes[k].T_map_body.cast<float>());
-    auto kept = std::make_shared<PointCloud>();
     for (size_t i = 0; i < full.size(); ++i) {
-      if (seen.insert(voxel_key(voxel_index(T_map_body * full.points[i], voxel))).second) {
-        kept->points.push_back(full.points[i]);
-        kept->intensities.push_back(full.intensities[i]);
+      if (full.points[i].allFinite() &&
+          (voxel_m <= 0.0 ||
+           seen.insert(voxel_key(voxel_index(T_map_body * full.points[i], voxel))).second)) {
+        kept.push_back(full.points[i], full.intensities[i]);
       }
     }
-    out.push_back(std::move(kept));
+    offsets.push_back(static_cast<uint32_t>(kept.size()));
   }
-  return out;
+  return {quantize(kept), std::move(offsets)};
 }
 
 int fill_submap_cloud_store(const MapData& map, const KeyframeCloudSource& clouds,
@@ -42,7 +49,7 @@ int fill_submap_cloud_store(const MapData& map, const KeyframeCloudSource& cloud
     if (store.contains(submap, keyframes)) {
       continue;
     }
-    SubmapClouds full;
+    KeyframeClouds full;
     for (const int64_t id : submap.keyframe_ids) {
       full.push_back(clouds(id));
     }

@@ -2,9 +2,9 @@
 // What the map server sends for a submap: the clouds of its keyframes, each in its body
 // frame. A submap's keyframes overlap heavily (1 m apart, each seeing ~100 m), so with a
 // voxel size > 0 each map voxel is sent once, by the first keyframe of the submap that
-// has a point in it. That deduplication is derived data: computed once per submap and
-// kept in a SubmapCloudStore (storage/submap_cloud_files: files next to the map), so that
-// no request pays for it.
+// has a point in it. The result is quantized once, as it travels (CompactCloud). It is
+// derived data: computed once per submap and kept in a SubmapCloudStore
+// (storage/submap_cloud_files: files next to the map), so that a request copies bytes.
 
 #include <functional>
 #include <memory>
@@ -13,18 +13,36 @@
 #include <vector>
 
 #include "map/map_types.hpp"
+#include "pointcloud/compact_cloud.hpp"
 #include "pointcloud/point_cloud.hpp"
 
 namespace liloc {
 
-// One cloud per keyframe of a submap, in the submap's order, each in its body frame.
-using SubmapClouds = std::vector<std::shared_ptr<const PointCloud>>;
+// Full keyframe clouds, as the map stores them, each in its body frame.
+using KeyframeClouds = std::vector<std::shared_ptr<const PointCloud>>;
 using KeyframeCloudSource = std::function<std::shared_ptr<const PointCloud>(int64_t keyframe_id)>;
 
-// The submap's clouds from its keyframes' (`clouds[k]` of `keyframes[k]`): all points
-// with voxel_m = 0, else each voxel_m map voxel in the first keyframe that has it.
+// The clouds a reply sends for consecutive keyframes (of a submap, or a chunk of one),
+// in one CompactCloud: keyframe k owns points [offsets[k], offsets[k + 1]), in its own
+// body frame.
+struct SubmapClouds {
+  CompactCloud cloud;
+  std::vector<uint32_t> offsets{0};  // one more than keyframes
+
+  size_t keyframes() const { return offsets.size() - 1; }
+  size_t points_of(size_t k) const { return offsets[k + 1] - offsets[k]; }
+  PointCloud keyframe_cloud(size_t k) const {
+    return dequantize(cloud, offsets[k], offsets[k + 1]);
+  }
+  // Keyframes [first, end), their offsets starting at 0.
+  SubmapClouds keyframe_range(size_t first, size_t end) const;
+};
+
+// The submap's clouds from its keyframes' (`clouds[k]` of `keyframes[k]`), non-finite
+// points left out: all points with voxel_m = 0, else each voxel_m map voxel in the first
+// keyframe that has it.
 SubmapClouds deduplicate_submap_clouds(const std::vector<MapKeyframe>& keyframes,
-                                       const SubmapClouds& clouds, double voxel_m);
+                                       const KeyframeClouds& clouds, double voxel_m);
 
 // The keyframes of each submap of `map`, in the order of map.submaps.
 inline std::vector<std::vector<MapKeyframe>> keyframes_of_submaps(const MapData& map) {

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cinttypes>
 #include <cstdio>
 #include <cstring>
@@ -18,8 +19,7 @@ namespace {
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "the file layout is little-endian");
 
 constexpr char kMagic[8] = {'L', 'I', 'L', 'O', 'C', 'S', 'U', 'B'};
-constexpr uint32_t kFormat = 1;
-constexpr size_t kBytesPerPoint = 4 * sizeof(float);
+constexpr uint32_t kFormat = 2;  // 2: quantized (CompactCloud); 1 had floats
 constexpr const char* kSubdirectory = "derived/submap_clouds";
 constexpr const char* kExtension = ".bin";
 
@@ -60,77 +60,81 @@ void append(std::string& out, const T& value) {
 }
 
 template <class T>
+void append_array(std::string& out, const std::vector<T>& values) {
+  out.append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
+}
+
+template <class T>
 T read_at(std::string_view bytes, size_t offset) {
   T value;
   std::memcpy(&value, bytes.data() + offset, sizeof(T));
   return value;
 }
 
-// Header: magic, format, key, keyframe count, then the points of each keyframe; the
-// last four bytes are the CRC-32 of everything before them.
+// Reads n values at `offset` and moves it past them.
+template <class T>
+std::vector<T> read_array(std::string_view bytes, size_t& offset, size_t n) {
+  std::vector<T> values(n);
+  std::memcpy(values.data(), bytes.data() + offset, n * sizeof(T));
+  offset += n * sizeof(T);
+  return values;
+}
+
+// Header: magic, format, key, keyframe count, resolution, intensity scale; then the
+// keyframes' offsets (count + 1), the x, y, z and intensity arrays (the CompactCloud as
+// it is in memory, so that loading is a copy); the last four bytes are the CRC-32 of
+// everything before them.
 constexpr size_t kHeaderBytes =
-    sizeof(kMagic) + sizeof(uint32_t) + sizeof(uint64_t) + sizeof(uint32_t);
+    sizeof(kMagic) + sizeof(uint32_t) + sizeof(uint64_t) + sizeof(uint32_t) + 2 * sizeof(float);
+constexpr size_t kBytesPerPoint = 3 * sizeof(int16_t) + sizeof(uint8_t);
 
 std::string encode(uint64_t key, const SubmapClouds& clouds) {
-  size_t points = 0;
-  for (const auto& cloud : clouds) {
-    points += cloud->size();
-  }
+  const size_t points = clouds.cloud.size();
   std::string out;
-  out.reserve(kHeaderBytes + 4 * clouds.size() + points * kBytesPerPoint + 4);
+  out.reserve(kHeaderBytes + 4 * clouds.offsets.size() + points * kBytesPerPoint + 4);
   out.append(kMagic, sizeof(kMagic));
   append(out, kFormat);
   append(out, key);
-  append(out, static_cast<uint32_t>(clouds.size()));
-  for (const auto& cloud : clouds) {
-    append(out, static_cast<uint32_t>(cloud->size()));
-  }
-  for (const auto& cloud : clouds) {
-    for (size_t i = 0; i < cloud->size(); ++i) {
-      const float point[4] = {cloud->points[i].x(), cloud->points[i].y(), cloud->points[i].z(),
-                              cloud->intensities[i]};
-      out.append(reinterpret_cast<const char*>(point), kBytesPerPoint);
-    }
-  }
+  append(out, static_cast<uint32_t>(clouds.keyframes()));
+  append(out, clouds.cloud.resolution_m);
+  append(out, clouds.cloud.intensity_scale);
+  append_array(out, clouds.offsets);
+  append_array(out, clouds.cloud.x);
+  append_array(out, clouds.cloud.y);
+  append_array(out, clouds.cloud.z);
+  append_array(out, clouds.cloud.intensity);
   append(out, crc32_of(out));
   return out;
 }
 
 // Nothing unless `bytes` is an intact file for `key` with `keyframes` clouds.
 std::optional<SubmapClouds> decode(std::string_view bytes, uint64_t key, size_t keyframes) {
-  if (bytes.size() < kHeaderBytes + 4 ||
+  if (bytes.size() < kHeaderBytes + 4 * (keyframes + 1) + 4 ||
       crc32_of(bytes.substr(0, bytes.size() - 4)) != read_at<uint32_t>(bytes, bytes.size() - 4) ||
       std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0 ||
       read_at<uint32_t>(bytes, 8) != kFormat || read_at<uint64_t>(bytes, 12) != key ||
       read_at<uint32_t>(bytes, 20) != keyframes) {
     return std::nullopt;
   }
-  size_t offset = kHeaderBytes + 4 * keyframes;
-  if (bytes.size() < offset + 4) {
-    return std::nullopt;
-  }
-  std::vector<uint32_t> counts(keyframes);
-  size_t points = 0;
-  for (size_t k = 0; k < keyframes; ++k) {
-    counts[k] = read_at<uint32_t>(bytes, kHeaderBytes + 4 * k);
-    points += counts[k];
-  }
-  if (bytes.size() != offset + points * kBytesPerPoint + 4) {
-    return std::nullopt;
-  }
   SubmapClouds clouds;
-  clouds.reserve(keyframes);
-  for (size_t k = 0; k < keyframes; ++k) {
-    auto cloud = std::make_shared<PointCloud>();
-    cloud->points.resize(counts[k]);
-    cloud->intensities.resize(counts[k]);
-    for (uint32_t i = 0; i < counts[k]; ++i, offset += kBytesPerPoint) {
-      float point[4];
-      std::memcpy(point, bytes.data() + offset, kBytesPerPoint);
-      cloud->points[i] = Eigen::Vector3f(point[0], point[1], point[2]);
-      cloud->intensities[i] = point[3];
-    }
-    clouds.push_back(std::move(cloud));
+  clouds.cloud.resolution_m = read_at<float>(bytes, 24);
+  clouds.cloud.intensity_scale = read_at<float>(bytes, 28);
+  size_t offset = kHeaderBytes;
+  clouds.offsets = read_array<uint32_t>(bytes, offset, keyframes + 1);
+  const size_t points = clouds.offsets.back();
+  if (clouds.offsets.front() != 0 ||
+      !std::is_sorted(clouds.offsets.begin(), clouds.offsets.end()) ||
+      bytes.size() != offset + points * kBytesPerPoint + 4) {
+    return std::nullopt;
+  }
+  clouds.cloud.x = read_array<int16_t>(bytes, offset, points);
+  clouds.cloud.y = read_array<int16_t>(bytes, offset, points);
+  clouds.cloud.z = read_array<int16_t>(bytes, offset, points);
+  clouds.cloud.intensity = read_array<uint8_t>(bytes, offset, points);
+  try {
+    check_compact_cloud(clouds.cloud);
+  } catch (const std::invalid_argument&) {
+    return std::nullopt;
   }
   return clouds;
 }
@@ -175,9 +179,9 @@ std::optional<SubmapClouds> SubmapCloudFiles::load(
 
 void SubmapCloudFiles::save(const Submap& submap, const std::vector<MapKeyframe>& keyframes,
                             const SubmapClouds& clouds) const {
-  if (clouds.size() != keyframes.size()) {
+  if (clouds.keyframes() != keyframes.size()) {
     throw std::invalid_argument("submap " + std::to_string(submap.id) + ": " +
-                                std::to_string(clouds.size()) + " clouds for " +
+                                std::to_string(clouds.keyframes()) + " clouds for " +
                                 std::to_string(keyframes.size()) + " keyframes");
   }
   create_directory_synced(directory_);

@@ -16,7 +16,7 @@
 #include <thread>
 
 #include "app/program.hpp"
-#include "app/serial_worker.hpp"
+#include "app/worker_pool.hpp"
 #include "bridge/map_conversions.hpp"
 #include "bridge/status_report.hpp"
 #include "config/yaml_config.hpp"
@@ -102,8 +102,7 @@ class MapSaver {
   std::mutex mutex_;  // guards done_
   std::deque<Done> done_;
   // Last: destroyed first, finishing the queued saves: nothing merged is lost on exit.
-  SerialWorker<Job> worker_{[this](Job& job) { save(job); },
-                            SerialWorker<Job>::OnStop::kFinishQueued};
+  WorkerPool<Job> worker_{[this](Job& job) { save(job); }, WorkerPool<Job>::OnStop::kFinishQueued};
 };
 
 class MapServerProcess {
@@ -119,16 +118,18 @@ class MapServerProcess {
         saver_(store, service_.map().version, config.descriptor, config.map_server.keep_versions),
         bus_(config.transport) {
     disk_version_ = service_.map().version;
-    bus_.subscribe<liloc::submap_request_t>(
-        config.channels.map_request,
-        [this](const liloc::submap_request_t& msg, const transport::ReceiveInfo&) {
-          SubmapQuery query = bridge::from_msg(msg);
-          if (query.include_clouds) {
-            replies_.submit({std::move(query), msg.header.utime});  // off this thread
-          } else {
-            reply(query, msg.header.utime);
-          }
-        });
+    bus_.subscribe<
+        liloc::submap_request_t>(config.channels.map_request, [this](const liloc::submap_request_t&
+                                                                         msg,
+                                                                     const transport::ReceiveInfo&
+                                                                         info) {
+      SubmapQuery query = bridge::from_msg(msg);
+      if (query.include_clouds) {
+        replies_.submit({std::move(query), msg.header.utime, info.recv_utime});  // off this thread
+      } else {
+        reply(query, msg.header.utime, info.recv_utime);
+      }
+    });
     bus_.subscribe<liloc::map_update_t>(
         config.channels.map_update,
         [this](const liloc::map_update_t& msg, const transport::ReceiveInfo&) {
@@ -201,8 +202,8 @@ class MapServerProcess {
  private:
   // Answers one request: planned under the service lock; clouds gathered, encoded and
   // sent without it, so that other requests and updates go on meanwhile.
-  void reply(const SubmapQuery& query, int64_t request_utime) {
-    const Clock::time_point start = Clock::now();
+  // received_us: when the request arrived (LCM's receive time).
+  void reply(const SubmapQuery& query, int64_t request_utime, int64_t received_us) {
     transport::Transport* bus = reply_bus(query.reply_url);
     if (bus == nullptr) {
       // Logged the first time and then every 100th, not at every request of a robot.
@@ -227,7 +228,14 @@ class MapServerProcess {
       liloc::submap_t message = bridge::to_msg(part, request_utime);
       bus->publish(channel, message);
     }
-    last_reply_ms_ = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+    // The worst since the last status, from arrival to the last message sent: what the
+    // server adds to a robot's wait, queueing included.
+    std::atomic<double>& worst =
+        query.include_clouds ? worst_cloud_reply_ms_ : worst_position_reply_ms_;
+    const double ms = static_cast<double>(now_us() - received_us) / 1000.0;
+    double seen = worst.load();
+    while (ms > seen && !worst.compare_exchange_weak(seen, ms)) {
+    }
   }
 
   // The bus a reply goes to: the robot's own (reply_url) if it named one, else the
@@ -297,7 +305,9 @@ class MapServerProcess {
     bridge::StatusReport report;
     report.process = "map_server";
     const MapServiceCounters& c = service_.counters();
-    report.timings_ms = {{"last_reply", static_cast<float>(last_reply_ms_)}};
+    report.timings_ms = {
+        {"position_reply_max", static_cast<float>(worst_position_reply_ms_.exchange(0.0))},
+        {"cloud_reply_max", static_cast<float>(worst_cloud_reply_ms_.exchange(0.0))}};
     report.counters = {{"requests", c.requests},
                        {"empty_replies", c.empty_replies},
                        {"updates_merged", c.updates_merged},
@@ -332,29 +342,32 @@ class MapServerProcess {
   std::atomic<int64_t> refused_reply_urls_{0};
   int64_t disk_version_ = 0;
   int pending_saves_ = 0;
-  std::atomic<double> last_reply_ms_{0.0};
+  std::atomic<double> worst_position_reply_ms_{0.0};
+  std::atomic<double> worst_cloud_reply_ms_{0.0};
   std::string last_message_;
   std::atomic<bool> stop_filling_{false};
   std::atomic<int64_t> submap_clouds_computed_{0};
   std::thread filler_;
   // Guards service_: position queries are answered on the LCM thread, cloud replies
-  // (megabytes to encode and send) on the reply worker, so that they never hold up the
-  // small ones.
+  // (hundreds of kB to read and send) on reply_threads workers, so that they never hold
+  // up the small ones and a burst of them (robots entering submaps at once) is answered
+  // side by side.
   std::mutex service_mutex_;
   struct CloudRequest {
     SubmapQuery query;
     int64_t request_utime = 0;
+    int64_t received_us = 0;
   };
-  SerialWorker<CloudRequest> replies_{[this](CloudRequest& r) {
-                                        try {
-                                          reply(r.query, r.request_utime);
-                                        } catch (const std::exception& e) {
-                                          spdlog::error("reply to {} request {}: {}",
-                                                        r.query.robot_id, r.query.request_id,
-                                                        e.what());
-                                        }
-                                      },
-                                      SerialWorker<CloudRequest>::OnStop::kDropQueued};
+  WorkerPool<CloudRequest> replies_{
+      [this](CloudRequest& r) {
+        try {
+          reply(r.query, r.request_utime, r.received_us);
+        } catch (const std::exception& e) {
+          spdlog::error("reply to {} request {}: {}", r.query.robot_id, r.query.request_id,
+                        e.what());
+        }
+      },
+      WorkerPool<CloudRequest>::OnStop::kDropQueued, config_.map_server.reply_threads};
 };
 }  // namespace
 

@@ -1,6 +1,7 @@
 #pragma once
-// Runs jobs one after another, in submission order, on a thread of its own: work that a
-// process must not do on its message thread (saving a map, sending a large reply).
+// Runs jobs on threads of its own: work that a process must not do on its message thread
+// (saving a map, sending a large reply). With one thread, jobs run one after another in
+// submission order; with more, queued jobs start in that order and run side by side.
 
 #include <spdlog/spdlog.h>
 
@@ -9,36 +10,49 @@
 #include <exception>
 #include <functional>
 #include <mutex>
+#include <stdexcept>
 #include <thread>
+#include <vector>
 
 namespace liloc {
 
 template <class Job>
-class SerialWorker {
+class WorkerPool {
  public:
   // What the destructor does with jobs still queued.
   enum class OnStop { kFinishQueued, kDropQueued };
 
-  // `run` is called on the worker thread; an exception it throws is logged, not fatal.
-  SerialWorker(std::function<void(Job&)> run, OnStop on_stop)
-      : run_(std::move(run)), on_stop_(on_stop), thread_([this] { loop(); }) {}
-  ~SerialWorker() {
+  // `run` is called on a worker thread, from `threads` of them at once (so it must be
+  // thread-safe when threads > 1); an exception it throws is logged, not fatal.
+  WorkerPool(std::function<void(Job&)> run, OnStop on_stop, int threads = 1)
+      : run_(std::move(run)), on_stop_(on_stop) {
+    if (threads < 1) {
+      throw std::invalid_argument("a worker pool needs at least one thread, got " +
+                                  std::to_string(threads));
+    }
+    for (int i = 0; i < threads; ++i) {
+      threads_.emplace_back([this] { loop(); });
+    }
+  }
+  ~WorkerPool() {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       stopping_ = true;
     }
     wake_.notify_all();
-    thread_.join();
+    for (std::thread& t : threads_) {
+      t.join();
+    }
   }
-  SerialWorker(const SerialWorker&) = delete;
-  SerialWorker& operator=(const SerialWorker&) = delete;
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
 
   void submit(Job job) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       jobs_.push_back(std::move(job));
     }
-    wake_.notify_all();
+    wake_.notify_one();
   }
 
  private:
@@ -68,7 +82,7 @@ class SerialWorker {
   std::condition_variable wake_;
   std::deque<Job> jobs_;
   bool stopping_ = false;
-  std::thread thread_;  // last: starts once the members above exist
+  std::vector<std::thread> threads_;  // last: started once the members above exist
 };
 
 }  // namespace liloc
