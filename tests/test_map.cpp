@@ -446,6 +446,13 @@ TEST(MapService, RejectsBadUpdatesAndExpiresIncompleteOnes) {
   EXPECT_EQ(s.receive(update_part("r1", 4, 3, 2, 1, 0), 0).status,
             UpdateOutcome::Status::kRejected);  // chunk 3 of 2
   EXPECT_EQ(s.counters().updates_rejected, 4);
+  // A part the process could not convert rejects its whole update: the other part that
+  // arrived before it is dropped, and later ones are ignored.
+  EXPECT_EQ(s.receive(update_part("r2", 6, 0, 2, 1, 0), 0).status, UpdateOutcome::Status::kPending);
+  EXPECT_EQ(s.reject("r2", 6, "pose has a non-finite value").status,
+            UpdateOutcome::Status::kRejected);
+  EXPECT_EQ(s.counters().updates_rejected, 5);
+  EXPECT_EQ(s.receive(update_part("r2", 6, 1, 2, 1, 0), 0).status, UpdateOutcome::Status::kPending);
   EXPECT_EQ(s.receive(update_part("r2", 5, 0, 2, 1, 0), 0).status, UpdateOutcome::Status::kPending);
   s.expire(static_cast<int64_t>(31e6));
   EXPECT_EQ(s.counters().updates_expired, 1);

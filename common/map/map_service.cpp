@@ -211,6 +211,18 @@ std::optional<std::string> MapService::validate(const MapUpdatePart& part) const
   return std::nullopt;
 }
 
+UpdateOutcome MapService::reject(const std::string& robot_id, int64_t update_id,
+                                 const std::string& reason) {
+  const std::pair<std::string, int64_t> key(robot_id, update_id);
+  pending_.erase(key);
+  finished_.insert(key);
+  ++counters_.updates_rejected;
+  UpdateOutcome outcome;
+  outcome.status = UpdateOutcome::Status::kRejected;
+  outcome.reason = reason;
+  return outcome;
+}
+
 UpdateOutcome MapService::receive(MapUpdatePart part, int64_t now_us) {
   UpdateOutcome outcome;
   const std::pair<std::string, int64_t> key(part.robot_id, part.update_id);
@@ -218,12 +230,7 @@ UpdateOutcome MapService::receive(MapUpdatePart part, int64_t now_us) {
     return outcome;  // a repeat of a finished update: nothing to do
   }
   const auto reject = [&](const std::string& reason) {
-    pending_.erase(key);
-    finished_.insert(key);
-    ++counters_.updates_rejected;
-    outcome.status = UpdateOutcome::Status::kRejected;
-    outcome.reason = reason;
-    return outcome;
+    return this->reject(part.robot_id, part.update_id, reason);
   };
   if (const std::optional<std::string> problem = validate(part)) {
     return reject(*problem);

@@ -152,6 +152,10 @@ class MapService {
   // Buffers a part of an update; once all parts of it arrived and it is valid, merges it
   // into the map (a new version). Malformed parts or updates are rejected with a reason.
   UpdateOutcome receive(MapUpdatePart part, int64_t now_us);
+  // An update part the process could not even convert (a non-finite pose, offsets that
+  // do not fit its cloud): the whole update is rejected and counted, like one that fails
+  // validation.
+  UpdateOutcome reject(const std::string& robot_id, int64_t update_id, const std::string& reason);
   // Drops updates still incomplete after update_timeout_s (counted as expired).
   void expire(int64_t now_us);
 

@@ -133,7 +133,14 @@ class MapServerProcess {
     bus_.subscribe<liloc::map_update_t>(
         config.channels.map_update,
         [this](const liloc::map_update_t& msg, const transport::ReceiveInfo&) {
-          const UpdateOutcome outcome = service_.receive(bridge::from_msg(msg), now_us());
+          // Reply workers plan under this lock meanwhile; a merge changes the map.
+          std::lock_guard<std::mutex> lock(service_mutex_);
+          UpdateOutcome outcome;
+          try {
+            outcome = service_.receive(bridge::from_msg(msg), now_us());
+          } catch (const std::invalid_argument& e) {
+            outcome = service_.reject(msg.header.robot_id, msg.update_id, e.what());
+          }
           if (outcome.status == UpdateOutcome::Status::kRejected) {
             spdlog::warn("update {} of {} rejected: {}", msg.update_id, msg.header.robot_id,
                          outcome.reason);
@@ -348,10 +355,10 @@ class MapServerProcess {
   std::atomic<bool> stop_filling_{false};
   std::atomic<int64_t> submap_clouds_computed_{0};
   std::thread filler_;
-  // Guards service_: position queries are answered on the LCM thread, cloud replies
-  // (hundreds of kB to read and send) on reply_threads workers, so that they never hold
-  // up the small ones and a burst of them (robots entering submaps at once) is answered
-  // side by side.
+  // Guards service_: position queries and updates are handled on the LCM thread, cloud
+  // replies (hundreds of kB to read and send) on reply_threads workers, so that they
+  // never hold up the small ones and a burst of them (robots entering submaps at once) is
+  // answered side by side.
   std::mutex service_mutex_;
   struct CloudRequest {
     SubmapQuery query;

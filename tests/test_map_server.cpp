@@ -1,0 +1,241 @@
+// The liloc_map_server process itself, over loopback multicast (ttl=0): it loads a map
+// directory, answers a position query and a request with clouds on the robot's own
+// reply group, refuses a reply URL it cannot serve and a malformed update (both counted
+// in MAP.STATUS), writes the submaps' reply clouds next to the map, and stops cleanly on
+// SIGINT. Every wait is bounded.
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "bridge/map_conversions.hpp"
+#include "liloc/status_t.hpp"
+#include "map/keyframe_descriptors.hpp"
+#include "map/submap_database.hpp"
+#include "storage/map_store.hpp"
+#include "transport/channels.hpp"
+#include "transport/transport.hpp"
+
+namespace liloc {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+// Ports of this test only, so that it runs beside other tests and the demo.
+const std::string kUrl = "udpm://239.255.76.67:7795?ttl=0&recv_buf_size=2097152";
+const std::string kReplyUrl = "udpm://239.255.76.67:7796?ttl=0&recv_buf_size=2097152";
+constexpr const char* kRobot = "testbot";
+
+// 45 keyframes one metre apart along x, each seeing a 10 m x 6 m patch of ground ahead of
+// it (a point every 0.2 m): three submaps by Eq. 2 (20, 20 and 5 keyframes).
+std::map<int64_t, PointCloud> write_map(const std::string& dir) {
+  MapData map;
+  map.map_id = "process-test";
+  std::map<int64_t, PointCloud> clouds;
+  for (int i = 0; i < 45; ++i) {
+    MapKeyframe kf;
+    kf.id = i;
+    kf.utime_us = 1000000LL * i;
+    kf.session = "A";
+    kf.T_map_body.translation() = Eigen::Vector3d(i, 0.0, 0.0);
+    map.keyframes.push_back(kf);
+    PointCloud& cloud = clouds[i];
+    for (int x = 0; x < 50; ++x) {
+      for (int y = -15; y < 15; ++y) {
+        cloud.push_back(Eigen::Vector3f(0.2f * x, 0.2f * y, -1.0f), static_cast<float>(x));
+      }
+    }
+  }
+  map.submaps = join_submaps(map.keyframes, SubmapConfig{}, 0);
+  storage::MapStore(dir).save(
+      map, clouds, encode_keyframe_descriptors(map.keyframes, clouds, PolarDescriptorConfig{}));
+  return clouds;
+}
+
+pid_t start_server(const std::string& map_dir) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::execl(LILOC_MAP_SERVER, LILOC_MAP_SERVER, "--config", LILOC_SOURCE_DIR "/config/liloc.yaml",
+            "--map", map_dir.c_str(), "--lcm-url", kUrl.c_str(), "--log-level", "warn",
+            static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  return pid;
+}
+
+// Exit status of `pid` within timeout_s, or -1 (then killed).
+int wait_for_exit(pid_t pid, double timeout_s) {
+  const Clock::time_point end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                   std::chrono::duration<double>(timeout_s));
+  while (Clock::now() < end) {
+    int status = 0;
+    if (::waitpid(pid, &status, WNOHANG) == pid) {
+      return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ::kill(pid, SIGKILL);
+  ::waitpid(pid, nullptr, 0);
+  return -1;
+}
+
+class Robot {
+ public:
+  Robot() : bus_(config(kUrl)), replies_(config(kReplyUrl)) {
+    replies_.subscribe<liloc::submap_t>(
+        transport::robot_channel(kRobot, "SUBMAP"),
+        [this](const liloc::submap_t& msg, const transport::ReceiveInfo&) {
+          parts_[msg.request_id].push_back(bridge::from_msg(msg));
+        });
+    bus_.subscribe<liloc::status_t>(
+        "MAP.STATUS", [this](const liloc::status_t& msg, const transport::ReceiveInfo&) {
+          for (int32_t i = 0; i < msg.num_counters; ++i) {
+            counters_[msg.counter_names[i]] = msg.counter_values[i];
+          }
+        });
+  }
+
+  int64_t request(SubmapQuery q) {
+    q.robot_id = kRobot;
+    q.request_id = ++last_request_;
+    liloc::submap_request_t msg = bridge::to_msg(q, 0);
+    bus_.publish(transport::ChannelConfig{}.map_request, msg);
+    return q.request_id;
+  }
+
+  // Handles messages until `done` or timeout_s: whether `done` came true.
+  bool wait(const std::function<bool()>& done, double timeout_s) {
+    const Clock::time_point end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                     std::chrono::duration<double>(timeout_s));
+    while (!done() && Clock::now() < end) {
+      bus_.handle(10);
+      replies_.handle(10);
+    }
+    return done();
+  }
+
+  // The whole reply to `request_id`, once all its parts came.
+  bool complete(int64_t request_id) const {
+    const auto it = parts_.find(request_id);
+    return it != parts_.end() && !it->second.empty() &&
+           static_cast<int>(it->second.size()) == it->second.front().reply_count;
+  }
+  const std::vector<SubmapReplyPart>& parts(int64_t request_id) { return parts_[request_id]; }
+  int64_t counter(const std::string& name) const {
+    const auto it = counters_.find(name);
+    return it == counters_.end() ? 0 : it->second;
+  }
+  transport::Transport& bus() { return bus_; }
+
+ private:
+  static transport::TransportConfig config(const std::string& url) {
+    transport::TransportConfig c;
+    c.url = url;
+    return c;
+  }
+  transport::Transport bus_;
+  transport::Transport replies_;
+  std::map<int64_t, std::vector<SubmapReplyPart>> parts_;
+  std::map<std::string, int64_t> counters_;
+  int64_t last_request_ = 0;
+};
+
+TEST(MapServerProcess, ServesRobotsRefusesBadInputAndStopsCleanly) {
+  const std::string dir = ::testing::TempDir() + "liloc_map_server_process";
+  fs::remove_all(dir);
+  const std::map<int64_t, PointCloud> clouds = write_map(dir + "/map");
+  const pid_t server = start_server(dir + "/map");
+  ASSERT_GT(server, 0);
+  Robot robot;
+
+  // Where am I: the nearest submap, no clouds. The server is up once it answers.
+  SubmapQuery where;
+  where.position = Eigen::Vector3d(27.0, 0.5, 0.0);
+  where.include_clouds = false;
+  where.reply_url = kReplyUrl;
+  int64_t asked = 0;
+  for (int attempt = 0; attempt < 30 && (asked == 0 || !robot.complete(asked)); ++attempt) {
+    asked = robot.request(where);
+    robot.wait([&] { return robot.complete(asked); }, 1.0);
+  }
+  ASSERT_TRUE(robot.complete(asked)) << "no answer from liloc_map_server in 30 s";
+  ASSERT_EQ(robot.parts(asked).size(), 1u);
+  ASSERT_TRUE(robot.parts(asked)[0].submap);
+  EXPECT_EQ(robot.parts(asked)[0].submap->id, 1);  // keyframes 20-39
+  EXPECT_FALSE(robot.parts(asked)[0].clouds);
+
+  // Submap 0 with its clouds: 20 keyframes, every point within half a centimetre of one
+  // of its keyframe's points, each 0.3 m map voxel once.
+  SubmapQuery fetch;
+  fetch.by_id = true;
+  fetch.submap_ids = {0};
+  fetch.reply_url = kReplyUrl;
+  const int64_t fetched = robot.request(fetch);
+  ASSERT_TRUE(robot.wait([&] { return robot.complete(fetched); }, 10.0));
+  size_t keyframes = 0, points = 0;
+  for (const SubmapReplyPart& part : robot.parts(fetched)) {
+    ASSERT_TRUE(part.clouds);
+    for (size_t k = 0; k < part.keyframes.size(); ++k, ++keyframes) {
+      const PointCloud& original = clouds.at(part.keyframes[k].id);
+      for (const Eigen::Vector3f& p : part.clouds->keyframe_cloud(k).points) {
+        float nearest = 1e9f;
+        for (const Eigen::Vector3f& q : original.points) {
+          nearest = std::min(nearest, (p - q).cwiseAbs().maxCoeff());
+        }
+        EXPECT_LE(nearest, 0.005f + 1e-4f);
+        ++points;
+      }
+    }
+  }
+  EXPECT_EQ(keyframes, 20u);
+  EXPECT_GT(points, 0u);
+  EXPECT_LT(points, 20u * 1500u / 2u);  // deduplicated: far fewer than 20 full clouds
+
+  // A reply URL the server cannot serve: no reply, counted.
+  SubmapQuery refused = where;
+  refused.reply_url = "memq://";
+  robot.request(refused);
+  // An update with a non-finite pose: rejected, counted.
+  MapUpdatePart update;
+  update.robot_id = kRobot;
+  update.session_id = "B";
+  update.update_id = 1;
+  update.num_chunks = 1;
+  UpdateKeyframe kf;
+  kf.T_map_body.translation().x() = std::nan("");
+  kf.cloud_body.push_back(Eigen::Vector3f::Zero(), 0.0f);
+  update.keyframes.push_back(kf);
+  liloc::map_update_t update_msg = bridge::to_msg(update, 0);
+  robot.bus().publish(transport::ChannelConfig{}.map_update, update_msg);
+  EXPECT_TRUE(robot.wait(
+      [&] {
+        return robot.counter("refused_reply_urls") >= 1 && robot.counter("updates_rejected") >= 1;
+      },
+      5.0))
+      << "refused_reply_urls " << robot.counter("refused_reply_urls") << ", updates_rejected "
+      << robot.counter("updates_rejected");
+
+  // SIGINT: a clean exit, and the reply clouds of all three submaps are on disk.
+  ::kill(server, SIGINT);
+  EXPECT_EQ(wait_for_exit(server, 15.0), 0);
+  size_t files = 0;
+  for (const auto& entry : fs::directory_iterator(dir + "/map/derived/submap_clouds")) {
+    files += entry.path().extension() == ".bin" ? 1 : 0;
+  }
+  EXPECT_EQ(files, 3u);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace liloc
