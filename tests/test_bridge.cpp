@@ -129,6 +129,9 @@ TEST(LcmConversions, CompactCloudRoundTripAndBadMessages) {
   bad = msg;
   bad.y.pop_back();
   EXPECT_THROW(from_msg(bad), std::invalid_argument);
+  bad = msg;
+  bad.num_points = 1;  // arrays of 2
+  EXPECT_THROW(from_msg(bad), std::invalid_argument);
 }
 
 TEST(MapConversions, SubmapRequestRoundTripKeepsTheReplyUrl) {
@@ -196,6 +199,19 @@ TEST(MapConversions, SubmapReplyRoundTripSplitsTheCloudsByKeyframe) {
   EXPECT_THROW(from_msg(msg), std::invalid_argument);
   msg.cloud_offsets[1] = -1;
   EXPECT_THROW(from_msg(msg), std::invalid_argument);
+  msg.cloud_offsets = {1, 3};  // point 0 would belong to no keyframe
+  EXPECT_THROW(from_msg(msg), std::invalid_argument);
+
+  // Clouds asked for but without points come back as clouds; none asked for, as none.
+  SubmapReplyPart empty = part;
+  empty.clouds = deduplicate_submap_clouds(
+      part.keyframes, {std::make_shared<PointCloud>(), std::make_shared<PointCloud>()}, 0.0);
+  const SubmapReplyPart empty_back = from_msg(to_msg(empty, 5));
+  ASSERT_TRUE(empty_back.clouds);
+  EXPECT_EQ(empty_back.clouds->keyframes(), 2u);
+  EXPECT_TRUE(empty_back.clouds->cloud.empty());
+  empty.clouds.reset();
+  EXPECT_FALSE(from_msg(to_msg(empty, 5)).clouds);
   part.keyframes.pop_back();  // clouds of two keyframes for one
   EXPECT_THROW(to_msg(part, 5), std::invalid_argument);
 }

@@ -355,6 +355,30 @@ TEST(MapService, SendsEachMapVoxelOnceAndCachesIt) {
   EXPECT_EQ(f.cloud_loads, loads);
 }
 
+// The reply cache drops the least recently used submap, not the oldest one.
+TEST(MapService, ReplyCacheKeepsTheRecentlyUsedSubmaps) {
+  ServiceFixture f;
+  MapServiceConfig config;
+  config.reply_cache_submaps = 2;
+  MapService s = f.service(config);
+  const auto fetch = [&](int64_t submap) {
+    SubmapQuery q;
+    q.by_id = true;
+    q.submap_ids = {submap};
+    s.answer(q);
+  };
+  fetch(0);
+  fetch(1);
+  fetch(0);  // used again: now the most recent
+  EXPECT_EQ(f.cloud_loads, 40);
+  fetch(2);  // evicts 1
+  EXPECT_EQ(f.cloud_loads, 60);
+  fetch(0);
+  EXPECT_EQ(f.cloud_loads, 60);
+  fetch(1);
+  EXPECT_EQ(f.cloud_loads, 80);
+}
+
 // Deduplicated clouds are computed once per submap and kept in the store: a second
 // service (the server restarted) answers from the store without loading keyframe clouds;
 // fill_submap_cloud_store computes what the store lacks, and stops when asked.

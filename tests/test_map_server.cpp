@@ -32,10 +32,14 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-// Ports of this test only, so that it runs beside other tests and the demo.
-const std::string kUrl = "udpm://239.255.76.67:7795?ttl=0&recv_buf_size=2097152";
-const std::string kReplyUrl = "udpm://239.255.76.67:7796?ttl=0&recv_buf_size=2097152";
 constexpr const char* kRobot = "testbot";
+
+// Ports of this test only (7800-7999, by process id), so that it runs beside other tests,
+// the demo and the same test of another build tree.
+std::string url(int offset) {
+  return "udpm://239.255.76.67:" + std::to_string(7800 + 2 * (::getpid() % 100) + offset) +
+         "?ttl=0&recv_buf_size=2097152";
+}
 
 // 45 keyframes one metre apart along x, each seeing a 10 m x 6 m patch of ground ahead of
 // it (a point every 0.2 m): three submaps by Eq. 2 (20, 20 and 5 keyframes).
@@ -63,36 +67,55 @@ std::map<int64_t, PointCloud> write_map(const std::string& dir) {
   return clouds;
 }
 
-pid_t start_server(const std::string& map_dir) {
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    ::execl(LILOC_MAP_SERVER, LILOC_MAP_SERVER, "--config", LILOC_SOURCE_DIR "/config/liloc.yaml",
-            "--map", map_dir.c_str(), "--lcm-url", kUrl.c_str(), "--log-level", "warn",
-            static_cast<char*>(nullptr));
-    ::_exit(127);
-  }
-  return pid;
-}
-
-// Exit status of `pid` within timeout_s, or -1 (then killed).
-int wait_for_exit(pid_t pid, double timeout_s) {
-  const Clock::time_point end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                                   std::chrono::duration<double>(timeout_s));
-  while (Clock::now() < end) {
-    int status = 0;
-    if (::waitpid(pid, &status, WNOHANG) == pid) {
-      return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+// The server process for as long as the test runs: stopped (SIGINT) by stop(), or
+// killed when a failed assertion leaves the test early, so that no orphan keeps the
+// ports or ctest's output pipe.
+class ServerProcess {
+ public:
+  explicit ServerProcess(const std::string& map_dir) {
+    const std::string bus = url(0);
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      ::execl(LILOC_MAP_SERVER, LILOC_MAP_SERVER, "--config", LILOC_SOURCE_DIR "/config/liloc.yaml",
+              "--map", map_dir.c_str(), "--lcm-url", bus.c_str(), "--log-level", "warn",
+              static_cast<char*>(nullptr));
+      ::_exit(127);
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
-  ::kill(pid, SIGKILL);
-  ::waitpid(pid, nullptr, 0);
-  return -1;
-}
+  ~ServerProcess() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+  }
+  ServerProcess(const ServerProcess&) = delete;
+  ServerProcess& operator=(const ServerProcess&) = delete;
+
+  bool started() const { return pid_ > 0; }
+
+  // SIGINT, then its exit status within timeout_s, or -1 (then killed).
+  int stop(double timeout_s) {
+    ::kill(pid_, SIGINT);
+    const Clock::time_point end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                     std::chrono::duration<double>(timeout_s));
+    while (Clock::now() < end) {
+      int status = 0;
+      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return -1;  // killed by the destructor
+  }
+
+ private:
+  pid_t pid_ = -1;
+};
 
 class Robot {
  public:
-  Robot() : bus_(config(kUrl)), replies_(config(kReplyUrl)) {
+  Robot() : bus_(config(url(0))), replies_(config(url(1))) {
     replies_.subscribe<liloc::submap_t>(
         transport::robot_channel(kRobot, "SUBMAP"),
         [this](const liloc::submap_t& msg, const transport::ReceiveInfo&) {
@@ -152,18 +175,20 @@ class Robot {
 };
 
 TEST(MapServerProcess, ServesRobotsRefusesBadInputAndStopsCleanly) {
-  const std::string dir = ::testing::TempDir() + "liloc_map_server_process";
+  const std::string dir =
+      ::testing::TempDir() + "liloc_map_server_process_" + std::to_string(::getpid());
   fs::remove_all(dir);
   const std::map<int64_t, PointCloud> clouds = write_map(dir + "/map");
-  const pid_t server = start_server(dir + "/map");
-  ASSERT_GT(server, 0);
+  ServerProcess server(dir + "/map");
+  ASSERT_TRUE(server.started());
   Robot robot;
+  const std::string reply_url = url(1);
 
   // Where am I: the nearest submap, no clouds. The server is up once it answers.
   SubmapQuery where;
   where.position = Eigen::Vector3d(27.0, 0.5, 0.0);
   where.include_clouds = false;
-  where.reply_url = kReplyUrl;
+  where.reply_url = reply_url;
   int64_t asked = 0;
   for (int attempt = 0; attempt < 30 && (asked == 0 || !robot.complete(asked)); ++attempt) {
     asked = robot.request(where);
@@ -180,7 +205,7 @@ TEST(MapServerProcess, ServesRobotsRefusesBadInputAndStopsCleanly) {
   SubmapQuery fetch;
   fetch.by_id = true;
   fetch.submap_ids = {0};
-  fetch.reply_url = kReplyUrl;
+  fetch.reply_url = reply_url;
   const int64_t fetched = robot.request(fetch);
   ASSERT_TRUE(robot.wait([&] { return robot.complete(fetched); }, 10.0));
   size_t keyframes = 0, points = 0;
@@ -226,9 +251,12 @@ TEST(MapServerProcess, ServesRobotsRefusesBadInputAndStopsCleanly) {
       << "refused_reply_urls " << robot.counter("refused_reply_urls") << ", updates_rejected "
       << robot.counter("updates_rejected");
 
-  // SIGINT: a clean exit, and the reply clouds of all three submaps are on disk.
-  ::kill(server, SIGINT);
-  EXPECT_EQ(wait_for_exit(server, 15.0), 0);
+  // The background filler computes the reply clouds the map lacks at start (all three, or
+  // two if the request above computed submap 0 first) and reports when done; then all
+  // are on disk. SIGINT: a clean exit.
+  EXPECT_TRUE(robot.wait([&] { return robot.counter("submap_clouds_computed") >= 2; }, 10.0))
+      << "submap_clouds_computed " << robot.counter("submap_clouds_computed");
+  EXPECT_EQ(server.stop(15.0), 0);
   size_t files = 0;
   for (const auto& entry : fs::directory_iterator(dir + "/map/derived/submap_clouds")) {
     files += entry.path().extension() == ".bin" ? 1 : 0;

@@ -686,6 +686,17 @@ TEST(SubmapCloudFiles, RoundTripsAndNeverServesAChangedOrDamagedSubmap) {
   fs::resize_file(path, fs::file_size(path) - 6);
   EXPECT_FALSE(files.load(submap, keyframes));
   EXPECT_EQ(files.damaged(), 2);
+
+  // Intact files (checksums right) whose offsets do not describe the cloud: refused too.
+  SubmapClouds unsorted = saved;
+  std::swap(unsorted.offsets[3], unsorted.offsets[4]);
+  files.save(submap, keyframes, unsorted);
+  EXPECT_FALSE(files.load(submap, keyframes));
+  SubmapClouds shifted = saved;
+  shifted.offsets.front() = 1;
+  files.save(submap, keyframes, shifted);
+  EXPECT_FALSE(files.load(submap, keyframes));
+  EXPECT_EQ(files.damaged(), 4);
 }
 
 TEST(SubmapCloudFiles, PruneRemovesWhatTheCurrentMapDoesNotUse) {

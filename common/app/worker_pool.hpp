@@ -30,20 +30,16 @@ class WorkerPool {
       throw std::invalid_argument("a worker pool needs at least one thread, got " +
                                   std::to_string(threads));
     }
-    for (int i = 0; i < threads; ++i) {
-      threads_.emplace_back([this] { loop(); });
+    try {
+      for (int i = 0; i < threads; ++i) {
+        threads_.emplace_back([this] { loop(); });
+      }
+    } catch (...) {
+      stop();  // the threads already started, or their destructors would terminate
+      throw;
     }
   }
-  ~WorkerPool() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stopping_ = true;
-    }
-    wake_.notify_all();
-    for (std::thread& t : threads_) {
-      t.join();
-    }
-  }
+  ~WorkerPool() { stop(); }
   WorkerPool(const WorkerPool&) = delete;
   WorkerPool& operator=(const WorkerPool&) = delete;
 
@@ -56,6 +52,17 @@ class WorkerPool {
   }
 
  private:
+  void stop() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stopping_ = true;
+    }
+    wake_.notify_all();
+    for (std::thread& t : threads_) {
+      t.join();
+    }
+  }
+
   void loop() {
     while (true) {
       Job job;

@@ -140,8 +140,11 @@ liloc::submap_t to_msg(const SubmapReplyPart& part, int64_t utime) {
     msg.cloud_offsets.assign(part.clouds->offsets.begin(), part.clouds->offsets.end() - 1);
     msg.cloud = to_msg(part.clouds->cloud);
   } else {
+    // No clouds asked for: step 0 tells it from clouds that happen to have no points.
     msg.cloud_offsets.assign(part.keyframes.size(), 0);
     msg.cloud = to_msg(CompactCloud{});
+    msg.cloud.resolution_m = 0.0f;
+    msg.cloud.intensity_scale = 0.0f;
   }
   return msg;
 }
@@ -173,16 +176,18 @@ SubmapReplyPart from_msg(const liloc::submap_t& msg) {
       part.submap->keyframe_ids.push_back(kf.id);
     }
   }
-  if (msg.cloud.num_points > 0) {
+  if (msg.cloud.resolution_m != 0.0f || msg.cloud.num_points != 0) {
     SubmapClouds clouds;
     clouds.cloud = from_msg(msg.cloud);
     clouds.offsets.assign(msg.cloud_offsets.begin(), msg.cloud_offsets.end());
     clouds.offsets.push_back(static_cast<uint32_t>(clouds.cloud.size()));
+    bool fit = msg.cloud_offsets.empty() || msg.cloud_offsets.front() == 0;
     for (size_t k = 0; k < msg.cloud_offsets.size(); ++k) {
-      if (msg.cloud_offsets[k] < 0 || clouds.offsets[k] > clouds.offsets[k + 1]) {
-        throw std::invalid_argument("cloud_offsets do not fit the cloud of " +
-                                    std::to_string(clouds.cloud.size()) + " points");
-      }
+      fit = fit && msg.cloud_offsets[k] >= 0 && clouds.offsets[k] <= clouds.offsets[k + 1];
+    }
+    if (!fit) {
+      throw std::invalid_argument("cloud_offsets do not fit the cloud of " +
+                                  std::to_string(clouds.cloud.size()) + " points");
     }
     part.clouds = std::move(clouds);
   }

@@ -214,10 +214,13 @@ std::optional<std::string> MapService::validate(const MapUpdatePart& part) const
 UpdateOutcome MapService::reject(const std::string& robot_id, int64_t update_id,
                                  const std::string& reason) {
   const std::pair<std::string, int64_t> key(robot_id, update_id);
+  UpdateOutcome outcome;
+  if (finished_.count(key) != 0) {
+    return outcome;  // a repeat of a finished update: nothing to do
+  }
   pending_.erase(key);
   finished_.insert(key);
   ++counters_.updates_rejected;
-  UpdateOutcome outcome;
   outcome.status = UpdateOutcome::Status::kRejected;
   outcome.reason = reason;
   return outcome;

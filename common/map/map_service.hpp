@@ -32,7 +32,7 @@ struct MapServiceConfig {
   // keyframe clouds, which overlap ~3x). The deduplicated clouds of a submap are computed
   // once and kept in the SubmapCloudStore given to the service, if any.
   double reply_voxel_m = 0.3;
-  int reply_cache_submaps = 64;             // submaps' reply clouds kept in memory (~0.5 MB each)
+  int reply_cache_submaps = 64;             // submaps' reply clouds kept in memory (~0.45 MB each)
   std::vector<std::string> allowed_robots;  // updates from other robots are refused; empty: any
   int max_update_keyframes = 1000;
   int64_t max_update_points = 20000000;
@@ -154,7 +154,7 @@ class MapService {
   UpdateOutcome receive(MapUpdatePart part, int64_t now_us);
   // An update part the process could not even convert (a non-finite pose, offsets that
   // do not fit its cloud): the whole update is rejected and counted, like one that fails
-  // validation.
+  // validation (unless it was already merged or rejected: then nothing happens).
   UpdateOutcome reject(const std::string& robot_id, int64_t update_id, const std::string& reason);
   // Drops updates still incomplete after update_timeout_s (counted as expired).
   void expire(int64_t now_us);

@@ -38,8 +38,11 @@ CompactCloud quantize(const PointCloud& cloud, float resolution_m) {
     out.x[i] = static_cast<int16_t>(round(p.x() * to_steps));
     out.y[i] = static_cast<int16_t>(round(p.y() * to_steps));
     out.z[i] = static_cast<int16_t>(round(p.z() * to_steps));
-    const float intensity = std::isfinite(cloud.intensities[i]) ? cloud.intensities[i] : 0.0f;
-    out.intensity[i] = static_cast<uint8_t>(std::clamp(round(intensity * to_byte), 0, 255));
+    // Clamped as a float: casting an out-of-range or NaN float to int is undefined.
+    const float byte = cloud.intensities[i] * to_byte;
+    out.intensity[i] = static_cast<uint8_t>(!(byte > 0.0f)   ? 0
+                                            : byte >= 255.0f ? 255
+                                                             : round(byte));
   }
   return out;
 }

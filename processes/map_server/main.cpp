@@ -13,6 +13,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "app/program.hpp"
@@ -133,14 +134,18 @@ class MapServerProcess {
     bus_.subscribe<liloc::map_update_t>(
         config.channels.map_update,
         [this](const liloc::map_update_t& msg, const transport::ReceiveInfo&) {
+          std::optional<MapUpdatePart> part;
+          std::string malformed;
+          try {
+            part = bridge::from_msg(msg);
+          } catch (const std::invalid_argument& e) {
+            malformed = e.what();
+          }
           // Reply workers plan under this lock meanwhile; a merge changes the map.
           std::lock_guard<std::mutex> lock(service_mutex_);
-          UpdateOutcome outcome;
-          try {
-            outcome = service_.receive(bridge::from_msg(msg), now_us());
-          } catch (const std::invalid_argument& e) {
-            outcome = service_.reject(msg.header.robot_id, msg.update_id, e.what());
-          }
+          const UpdateOutcome outcome =
+              part ? service_.receive(std::move(*part), now_us())
+                   : service_.reject(msg.header.robot_id, msg.update_id, malformed);
           if (outcome.status == UpdateOutcome::Status::kRejected) {
             spdlog::warn("update {} of {} rejected: {}", msg.update_id, msg.header.robot_id,
                          outcome.reason);
