@@ -147,8 +147,13 @@ class MapServerProcess {
               part ? service_.receive(std::move(*part), now_us())
                    : service_.reject(msg.header.robot_id, msg.update_id, malformed);
           if (outcome.status == UpdateOutcome::Status::kRejected) {
-            spdlog::warn("update {} of {} rejected: {}", msg.update_id, msg.header.robot_id,
-                         outcome.reason);
+            // Logged the first time and then every 100th: a robot that keeps sending bad
+            // updates must not flood the log (all are counted in updates_rejected).
+            const int64_t rejected = service_.counters().updates_rejected;
+            if (rejected % 100 == 1) {
+              spdlog::warn("update {} of {} rejected: {} ({} rejected so far)", msg.update_id,
+                           msg.header.robot_id, outcome.reason, rejected);
+            }
             last_message_ = "rejected update from " + msg.header.robot_id + ": " + outcome.reason;
           } else if (outcome.status == UpdateOutcome::Status::kMerged) {
             spdlog::info("merged update {} of {}: {} keyframes, {} submaps", msg.update_id,
