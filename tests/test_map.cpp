@@ -414,6 +414,7 @@ TEST(MapService, KeepsDeduplicatedCloudsInTheStoreAcrossServices) {
   EXPECT_EQ(fill_submap_cloud_store(f.map, f.source(), store), 1);
   EXPECT_EQ(fill_submap_cloud_store(f.map, f.source(), store), 0);
   EXPECT_EQ(store.saves, 3);
+  EXPECT_EQ(fill_submap_cloud_store(f.map, f.source(), MemoryCloudStore(0.0)), 0);
   MemoryCloudStore other_voxel(0.5);
   EXPECT_THROW(f.service(config, &other_voxel), std::invalid_argument);
 }

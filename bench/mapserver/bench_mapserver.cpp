@@ -16,8 +16,10 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -84,9 +86,6 @@ void write_tiled_map(const std::string& source_dir, const std::string& dir, int 
 // them, so that the runs measure serving, not the one-time deduplication.
 void prepare_reply_clouds(const std::string& map_dir, const std::string& config_path) {
   const double voxel_m = load_config<SystemConfig>(config_path).map_server.service.reply_voxel_m;
-  if (voxel_m <= 0.0) {
-    return;
-  }
   const Clock::time_point start = Clock::now();
   storage::MapStore store(map_dir);
   const int computed = fill_submap_cloud_store(
@@ -97,41 +96,43 @@ void prepare_reply_clouds(const std::string& map_dir, const std::string& config_
                std::chrono::duration<double>(Clock::now() - start).count());
 }
 
+// Runs `work` in a child process, which exits 0 when it returns and 1 when it throws.
+pid_t fork_child(const std::function<void()>& work) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    try {
+      work();
+      ::_exit(0);
+    } catch (const std::exception& e) {
+      spdlog::error("{}", e.what());
+    }
+    ::_exit(1);
+  }
+  if (pid < 0) {
+    throw std::runtime_error("fork failed");
+  }
+  return pid;
+}
+
 // Runs `work` in a child process and waits for it. Writing a tiled map holds all its clouds
 // (gigabytes) at once; in this process the heap it leaves behind slowed the robots' reply
 // decoding measurably (10x map: reply p99 37-44 ms right after writing, 24 ms when the same
 // map was served by a fresh process).
 void in_child_process(const std::function<void()>& work) {
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    try {
-      work();
-    } catch (const std::exception& e) {
-      spdlog::error("{}", e.what());
-      ::_exit(1);
-    }
-    ::_exit(0);
-  }
+  const pid_t pid = fork_child(work);
   int status = 0;
-  if (pid < 0 || ::waitpid(pid, &status, 0) != pid || !WIFEXITED(status) ||
-      WEXITSTATUS(status) != 0) {
+  if (::waitpid(pid, &status, 0) != pid || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
     throw std::runtime_error("preparing the map in a child process failed");
   }
 }
 
 pid_t start_server(const std::string& server, const std::string& config, const std::string& map,
                    const std::string& url) {
-  const pid_t pid = ::fork();
-  if (pid == 0) {
+  return fork_child([&] {
     ::execl(server.c_str(), server.c_str(), "--config", config.c_str(), "--map", map.c_str(),
             "--lcm-url", url.c_str(), "--log-level", "warn", static_cast<char*>(nullptr));
-    std::perror("exec liloc_map_server");
-    ::_exit(127);
-  }
-  if (pid < 0) {
-    throw std::runtime_error("fork failed");
-  }
-  return pid;
+    throw std::runtime_error("exec " + server + ": " + std::strerror(errno));
+  });
 }
 
 // A stand-in for the server that answers every request at once with one small message
@@ -165,23 +166,6 @@ void run_echo_server(const std::string& url) {
   while (!shutdown_requested()) {
     bus.handle(100);
   }
-}
-
-pid_t start_echo_server(const std::string& url) {
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    try {
-      run_echo_server(url);
-      ::_exit(0);
-    } catch (const std::exception& e) {
-      spdlog::error("echo server: {}", e.what());
-    }
-    ::_exit(1);
-  }
-  if (pid < 0) {
-    throw std::runtime_error("fork failed");
-  }
-  return pid;
 }
 
 // The machine's CPU time (/proc/stat): the share the hypervisor stole from this virtual
@@ -440,7 +424,7 @@ Run run_once(const BenchOptions& options, const std::string& map_dir, int copies
   for (const MapKeyframe& kf : map.keyframes) {
     path.push_back(kf.T_map_body.translation());
   }
-  const pid_t server = echo ? start_echo_server(url)
+  const pid_t server = echo ? fork_child([&url] { run_echo_server(url); })
                             : start_server(options.server_path, options.config_path, map_dir, url);
   ServerStatusListener status(
       url, load_config<SystemConfig>(options.config_path).map_server.status_channel);

@@ -8,54 +8,34 @@
 namespace liloc::bridge {
 namespace {
 
-// The clouds one after another; offsets[k] is where cloud k starts. Non-finite points
-// are left out (they cannot be quantized, and no reader could use them).
-PointCloud concatenate(const std::vector<std::shared_ptr<const PointCloud>>& clouds,
-                       std::vector<int32_t>& offsets) {
-  size_t total = 0;
-  for (const auto& c : clouds) {
-    total += c->size();
-  }
+// Map updates: full clouds one after another; offsets[k] is where cloud k starts.
+liloc::point_cloud_t concatenate(const std::vector<std::shared_ptr<const PointCloud>>& clouds,
+                                 std::vector<int32_t>& offsets) {
   PointCloud all;
-  all.reserve(total);
   for (const auto& c : clouds) {
     offsets.push_back(static_cast<int32_t>(all.size()));
-    for (size_t i = 0; i < c->size(); ++i) {
-      if (c->points[i].allFinite()) {
-        all.push_back(c->points[i], c->intensities[i]);
-      }
-    }
+    all.points.insert(all.points.end(), c->points.begin(), c->points.end());
+    all.intensities.insert(all.intensities.end(), c->intensities.begin(), c->intensities.end());
   }
-  return all;
+  return to_msg(all);
 }
 
-// All points of a message as they are, non-finite ones included, so that offsets into
-// the message stay valid.
-PointCloud all_points(const liloc::point_cloud_t& msg) {
-  PointCloud all;
-  all.reserve(static_cast<size_t>(msg.num_points));
-  for (int32_t i = 0; i < msg.num_points; ++i) {
-    all.push_back(Eigen::Vector3f(msg.x[i], msg.y[i], msg.z[i]), msg.intensity[i]);
-  }
-  return all;
-}
-
-// Splits a concatenated cloud by offsets, dropping non-finite points; throws if the
-// offsets do not fit.
-std::vector<PointCloud> split(const PointCloud& all, const std::vector<int32_t>& offsets) {
-  const auto size = static_cast<int32_t>(all.size());
+// Splits a concatenated cloud by offsets; throws if they do not fit.
+std::vector<PointCloud> split(const liloc::point_cloud_t& cloud,
+                              const std::vector<int32_t>& offsets) {
   std::vector<PointCloud> out;
   for (size_t i = 0; i < offsets.size(); ++i) {
     const int32_t begin = offsets[i];
-    const int32_t end = i + 1 < offsets.size() ? offsets[i + 1] : size;
-    if (begin < 0 || end < begin || end > size) {
-      throw std::invalid_argument("cloud_offsets do not fit the cloud of " + std::to_string(size) +
-                                  " points");
+    const int32_t end = i + 1 < offsets.size() ? offsets[i + 1] : cloud.num_points;
+    if (begin < 0 || end < begin || end > cloud.num_points) {
+      throw std::invalid_argument("cloud_offsets do not fit the cloud of " +
+                                  std::to_string(cloud.num_points) + " points");
     }
     PointCloud c;
     for (int32_t k = begin; k < end; ++k) {
-      if (all.points[k].allFinite()) {
-        c.push_back(all.points[k], std::isfinite(all.intensities[k]) ? all.intensities[k] : 0.0f);
+      const Eigen::Vector3f p(cloud.x[k], cloud.y[k], cloud.z[k]);
+      if (p.allFinite()) {
+        c.push_back(p, std::isfinite(cloud.intensity[k]) ? cloud.intensity[k] : 0.0f);
       }
     }
     out.push_back(std::move(c));
@@ -202,7 +182,7 @@ MapUpdatePart from_msg(const liloc::map_update_t& msg) {
   part.chunk_index = msg.chunk_index;
   part.num_chunks = msg.num_chunks;
   part.base_map_version = msg.base_map_version;
-  std::vector<PointCloud> clouds = split(all_points(msg.cloud), msg.cloud_offsets);
+  std::vector<PointCloud> clouds = split(msg.cloud, msg.cloud_offsets);
   for (int32_t i = 0; i < msg.num_keyframes; ++i) {
     UpdateKeyframe kf;
     kf.sender_keyframe_id = msg.keyframe_ids[i];
@@ -232,7 +212,7 @@ liloc::map_update_t to_msg(const MapUpdatePart& part, int64_t utime) {
     msg.keyframe_fitness.push_back(static_cast<float>(kf.fitness_m));
     clouds.push_back(std::shared_ptr<const PointCloud>(&kf.cloud_body, [](const PointCloud*) {}));
   }
-  msg.cloud = to_msg(concatenate(clouds, msg.cloud_offsets));
+  msg.cloud = concatenate(clouds, msg.cloud_offsets);
   return msg;
 }
 

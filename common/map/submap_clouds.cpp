@@ -38,6 +38,9 @@ SubmapClouds deduplicate_submap_clouds(const std::vector<MapKeyframe>& keyframes
 
 int fill_submap_cloud_store(const MapData& map, const KeyframeCloudSource& clouds,
                             const SubmapCloudStore& store, const std::function<bool()>& stop) {
+  if (store.voxel_m() <= 0.0) {
+    return 0;
+  }
   const std::vector<std::vector<MapKeyframe>> keyframes_of = keyframes_of_submaps(map);
   int computed = 0;
   for (size_t s = 0; s < map.submaps.size(); ++s) {

@@ -77,7 +77,8 @@ class SubmapCloudStore {
 };
 
 // Computes and saves the clouds of every submap of `map` that the store lacks, until
-// `stop` (if given) returns true. Returns how many were computed.
+// `stop` (if given) returns true. Returns how many were computed: none for a store of
+// voxel size 0, since replies then send the keyframe clouds as they are.
 int fill_submap_cloud_store(const MapData& map, const KeyframeCloudSource& clouds,
                             const SubmapCloudStore& store,
                             const std::function<bool()>& stop = nullptr);

@@ -119,18 +119,17 @@ class MapServerProcess {
         saver_(store, service_.map().version, config.descriptor, config.map_server.keep_versions),
         bus_(config.transport) {
     disk_version_ = service_.map().version;
-    bus_.subscribe<
-        liloc::submap_request_t>(config.channels.map_request, [this](const liloc::submap_request_t&
-                                                                         msg,
-                                                                     const transport::ReceiveInfo&
-                                                                         info) {
-      SubmapQuery query = bridge::from_msg(msg);
-      if (query.include_clouds) {
-        replies_.submit({std::move(query), msg.header.utime, info.recv_utime});  // off this thread
-      } else {
-        reply(query, msg.header.utime, info.recv_utime);
-      }
-    });
+    // Requests with clouds are answered off this thread (see service_mutex_).
+    bus_.subscribe<liloc::submap_request_t>(
+        config.channels.map_request,
+        [this](const liloc::submap_request_t& msg, const transport::ReceiveInfo& info) {
+          SubmapQuery query = bridge::from_msg(msg);
+          if (query.include_clouds) {
+            replies_.submit({std::move(query), msg.header.utime, info.recv_utime});
+          } else {
+            reply(query, msg.header.utime, info.recv_utime);
+          }
+        });
     bus_.subscribe<liloc::map_update_t>(
         config.channels.map_update,
         [this](const liloc::map_update_t& msg, const transport::ReceiveInfo&) {

@@ -99,17 +99,13 @@ DriveResult run_odometry(const SystemConfig& config, const std::string& log_path
 // The deduplicated reply clouds of every submap, so that the server need not compute them.
 void save_submap_clouds(const std::string& directory, const MapData& map,
                         const std::map<int64_t, PointCloud>& clouds, const SystemConfig& config) {
-  const double voxel_m = config.map_server.service.reply_voxel_m;
-  if (voxel_m <= 0.0) {
-    return;  // the server sends the keyframe files as they are
-  }
   fill_submap_cloud_store(
       map,
       // Borrowed, not owned: `clouds` outlives the fill.
       [&clouds](int64_t id) {
         return std::shared_ptr<const PointCloud>(&clouds.at(id), [](const PointCloud*) {});
       },
-      storage::SubmapCloudFiles(directory, voxel_m));
+      storage::SubmapCloudFiles(directory, config.map_server.service.reply_voxel_m));
 }
 
 }  // namespace
