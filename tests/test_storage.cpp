@@ -674,6 +674,10 @@ TEST(SubmapCloudFiles, RoundTripsAndNeverServesAChangedOrDamagedSubmap) {
   std::vector<MapKeyframe> moved = keyframes;
   moved[3].T_map_body.translation().x() += 1e-6;
   EXPECT_FALSE(files.contains(submap, moved));
+  // The map saved and loaded again: poses equal to the last digit only, the same file.
+  std::vector<MapKeyframe> reloaded = keyframes;
+  reloaded[3].T_map_body.translation().x() += 1e-12;
+  EXPECT_TRUE(files.contains(submap, reloaded));
   EXPECT_EQ(files.damaged(), 0);
   EXPECT_THROW(files.save(submap, moved, {}), std::invalid_argument);
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cinttypes>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -39,6 +40,9 @@ class Fnv1a {
   uint64_t hash_ = 0xcbf29ce484222325ULL;
 };
 
+// Poses are hashed rounded (rotation to 1e-9, translation to 0.1 um): a map saved and
+// loaded again has the same poses only to the last digit (they are written as text and
+// pass through a rotation matrix), and its submaps must keep their files.
 uint64_t key_of(double voxel_m, const Submap& submap, const std::vector<MapKeyframe>& keyframes) {
   Fnv1a h;
   h.add(kFormat);
@@ -48,7 +52,8 @@ uint64_t key_of(double voxel_m, const Submap& submap, const std::vector<MapKeyfr
     h.add(kf.id);
     const Eigen::Matrix<double, 3, 4> T = kf.T_map_body.matrix().topRows<3>();
     for (int i = 0; i < 12; ++i) {
-      h.add(T(i % 3, i / 3));
+      const double step = i < 9 ? 1e-9 : 1e-7;  // column-major: the last three are t
+      h.add(static_cast<int64_t>(std::llround(T(i % 3, i / 3) / step)));
     }
   }
   return h.value();
@@ -139,6 +144,13 @@ std::optional<SubmapClouds> decode(std::string_view bytes, uint64_t key, size_t 
   return clouds;
 }
 
+// Relative to the map directory.
+std::string relative_path_of(int64_t submap_id, uint64_t key) {
+  char name[64];
+  std::snprintf(name, sizeof(name), "%06" PRId64 "-%016" PRIx64 "%s", submap_id, key, kExtension);
+  return std::string(kSubdirectory) + "/" + name;
+}
+
 }  // namespace
 
 SubmapCloudFiles::SubmapCloudFiles(std::string map_directory, double voxel_m)
@@ -148,10 +160,7 @@ SubmapCloudFiles::SubmapCloudFiles(std::string map_directory, double voxel_m)
 
 std::string SubmapCloudFiles::relative_path(const Submap& submap,
                                             const std::vector<MapKeyframe>& keyframes) const {
-  char name[64];
-  std::snprintf(name, sizeof(name), "%06" PRId64 "-%016" PRIx64 "%s", submap.id,
-                key_of(voxel_m_, submap, keyframes), kExtension);
-  return std::string(kSubdirectory) + "/" + name;
+  return relative_path_of(submap.id, key_of(voxel_m_, submap, keyframes));
 }
 
 bool SubmapCloudFiles::contains(const Submap& submap,
@@ -161,13 +170,14 @@ bool SubmapCloudFiles::contains(const Submap& submap,
 
 std::optional<SubmapClouds> SubmapCloudFiles::load(
     const Submap& submap, const std::vector<MapKeyframe>& keyframes) const {
-  const std::string path = map_directory_ + "/" + relative_path(submap, keyframes);
+  const uint64_t key = key_of(voxel_m_, submap, keyframes);
+  const std::string path = map_directory_ + "/" + relative_path_of(submap.id, key);
   if (!file_size_bytes(path)) {
     return std::nullopt;
   }
   std::optional<SubmapClouds> clouds;
   try {
-    clouds = decode(read_file(path), key_of(voxel_m_, submap, keyframes), keyframes.size());
+    clouds = decode(read_file(path), key, keyframes.size());
   } catch (const MapError&) {
     // Removed by a prune meanwhile, or unreadable: recomputed like a damaged file.
   }
@@ -185,11 +195,12 @@ void SubmapCloudFiles::save(const Submap& submap, const std::vector<MapKeyframe>
                                 std::to_string(keyframes.size()) + " keyframes");
   }
   create_directory_synced(directory_);
-  const std::string path = map_directory_ + "/" + relative_path(submap, keyframes);
+  const uint64_t key = key_of(voxel_m_, submap, keyframes);
+  const std::string path = map_directory_ + "/" + relative_path_of(submap.id, key);
   // Unique per writer: two threads may compute the same submap at once.
   const std::string temporary =
       path + "." + std::to_string(::getpid()) + "-" + std::to_string(temporaries_++) + kTempSuffix;
-  write_file_synced(temporary, encode(key_of(voxel_m_, submap, keyframes), clouds));
+  write_file_synced(temporary, encode(key, clouds));
   rename_file(temporary, path);
 }
 
