@@ -17,12 +17,47 @@ if(LILOC_WERROR)
   target_compile_options(liloc_warnings INTERFACE -Werror)
 endif()
 
-# liloc_module(<name> SOURCES ... DEPS ...): one static library per folder under common/.
+# Layering: what each target declares, recorded for tests/check_layering.cmake. A target's
+# files may include the headers of its own folder (`include_key`, the first component of
+# an include path: "map" for common/map/) and of the folders of the liloc libraries it
+# declares in DEPS, nothing else of liloc.
+function(liloc_record_layering target include_key)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  set(deps "")
+  foreach(dep ${ARG_DEPS})
+    if(dep MATCHES "^liloc_")
+      list(APPEND deps ${dep})
+    endif()
+  endforeach()
+  set_property(GLOBAL APPEND PROPERTY LILOC_LAYERING_TARGETS ${target})
+  set_property(GLOBAL PROPERTY LILOC_LAYERING_${target}_KEY "${include_key}")
+  set_property(GLOBAL PROPERTY LILOC_LAYERING_${target}_DIR ${CMAKE_CURRENT_SOURCE_DIR})
+  set_property(GLOBAL PROPERTY LILOC_LAYERING_${target}_SOURCES ${ARG_SOURCES})
+  set_property(GLOBAL PROPERTY LILOC_LAYERING_${target}_DEPS "${deps}")
+endfunction()
+
+# Writes what liloc_record_layering gathered, once every folder was added.
+function(liloc_write_layering file)
+  get_property(targets GLOBAL PROPERTY LILOC_LAYERING_TARGETS)
+  set(out "set(LILOC_TARGETS \"${targets}\")\n")
+  foreach(t ${targets})
+    foreach(field KEY DIR SOURCES DEPS)
+      get_property(value GLOBAL PROPERTY LILOC_LAYERING_${t}_${field})
+      string(APPEND out "set(${t}_${field} \"${value}\")\n")
+    endforeach()
+  endforeach()
+  file(WRITE ${file} "${out}")
+endfunction()
+
+# liloc_module(<name> SOURCES ... DEPS ...): one static library per folder under common/
+# (a folder may hold a few, e.g. bridge/ and bridge_pcl; the folder is the include key).
 function(liloc_module name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
   add_library(liloc_${name} STATIC ${ARG_SOURCES})
   target_include_directories(liloc_${name} PUBLIC ${PROJECT_SOURCE_DIR}/common)
   target_link_libraries(liloc_${name} PUBLIC ${ARG_DEPS} PRIVATE liloc_warnings)
+  get_filename_component(folder ${CMAKE_CURRENT_SOURCE_DIR} NAME)
+  liloc_record_layering(liloc_${name} ${folder} SOURCES ${ARG_SOURCES} DEPS ${ARG_DEPS})
 endfunction()
 
 # liloc_executable(<name> SOURCES ... DEPS ...): a process, tool or bench program, built
@@ -35,6 +70,14 @@ function(liloc_executable name)
                                                RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/bin)
   target_include_directories(${name}_exe PRIVATE ${PROJECT_SOURCE_DIR}/tools)
   target_link_libraries(${name}_exe PRIVATE ${ARG_DEPS} liloc_warnings)
+  # A tool includes its own folder's headers as "<tool>/x.hpp"; processes and benchmarks
+  # have none.
+  set(own "")
+  get_filename_component(parent ${CMAKE_CURRENT_SOURCE_DIR} DIRECTORY)
+  if(parent STREQUAL "${PROJECT_SOURCE_DIR}/tools")
+    get_filename_component(own ${CMAKE_CURRENT_SOURCE_DIR} NAME)
+  endif()
+  liloc_record_layering(${name}_exe "${own}" SOURCES ${ARG_SOURCES} DEPS ${ARG_DEPS})
 endfunction()
 
 # The workplace's read-only real test data (../shared/data next to the checkout); set

@@ -163,7 +163,7 @@ int count_occupied(const PolarDescriptor& d) {
   return n;
 }
 
-// Eq. 4's binning: 4 m rings (80 m / 20), 6 deg sectors counter-clockwise from +x, the
+// Eq. 3's binning: 4 m rings (80 m / 20), 6 deg sectors counter-clockwise from +x, the
 // maximum height per cell; far and non-finite points are ignored.
 TEST(PolarDescriptor, CellsHoldTheMaxHeightOfTheirPoints) {
   PointCloud cloud;

@@ -347,9 +347,9 @@ TEST(LoopClosure, RefusesKeyframesOutOfOrderAndBadConfigurations) {
   c = LoopClosureConfig{};
   c.registration.point_sigma_m = 0.0;
   EXPECT_THROW(c.validate(), std::invalid_argument);
-  c = LoopClosureConfig{};
-  c.descriptor.sectors = 1;
-  EXPECT_THROW(c.validate(), std::invalid_argument);
+  PolarDescriptorConfig descriptor;
+  descriptor.sectors = 1;
+  EXPECT_THROW(LoopClosureDetector(LoopClosureConfig{}, descriptor), std::invalid_argument);
   EXPECT_NO_THROW(LoopClosureConfig{}.validate());
 }
 

@@ -20,8 +20,7 @@
 
 #include "bridge/map_conversions.hpp"
 #include "liloc/status_t.hpp"
-#include "map/keyframe_descriptors.hpp"
-#include "map/submap_database.hpp"
+#include "map_test_data.hpp"
 #include "storage/map_store.hpp"
 #include "transport/channels.hpp"
 #include "transport/transport.hpp"
@@ -39,32 +38,6 @@ constexpr const char* kRobot = "testbot";
 std::string url(int offset) {
   return "udpm://239.255.76.67:" + std::to_string(7800 + 2 * (::getpid() % 100) + offset) +
          "?ttl=0&recv_buf_size=2097152";
-}
-
-// 45 keyframes one metre apart along x, each seeing a 10 m x 6 m patch of ground ahead of
-// it (a point every 0.2 m): three submaps by Eq. 2 (20, 20 and 5 keyframes).
-std::map<int64_t, PointCloud> write_map(const std::string& dir) {
-  MapData map;
-  map.map_id = "process-test";
-  std::map<int64_t, PointCloud> clouds;
-  for (int i = 0; i < 45; ++i) {
-    MapKeyframe kf;
-    kf.id = i;
-    kf.utime_us = 1000000LL * i;
-    kf.session = "A";
-    kf.T_map_body.translation() = Eigen::Vector3d(i, 0.0, 0.0);
-    map.keyframes.push_back(kf);
-    PointCloud& cloud = clouds[i];
-    for (int x = 0; x < 50; ++x) {
-      for (int y = -15; y < 15; ++y) {
-        cloud.push_back(Eigen::Vector3f(0.2f * x, 0.2f * y, -1.0f), static_cast<float>(x));
-      }
-    }
-  }
-  map.submaps = join_submaps(map.keyframes, SubmapConfig{}, 0);
-  storage::MapStore(dir).save(
-      map, clouds, encode_keyframe_descriptors(map.keyframes, clouds, PolarDescriptorConfig{}));
-  return clouds;
 }
 
 // The server process for as long as the test runs: stopped (SIGINT) by stop(), or
@@ -178,7 +151,7 @@ TEST(MapServerProcess, ServesRobotsRefusesBadInputAndStopsCleanly) {
   const std::string dir =
       ::testing::TempDir() + "liloc_map_server_process_" + std::to_string(::getpid());
   fs::remove_all(dir);
-  const std::map<int64_t, PointCloud> clouds = write_map(dir + "/map");
+  const std::map<int64_t, PointCloud> clouds = test::write_map(dir + "/map");
   ServerProcess server(dir + "/map");
   ASSERT_TRUE(server.started());
   Robot robot;

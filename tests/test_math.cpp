@@ -2,7 +2,6 @@
 
 #include <cmath>
 
-#include "math/framed_transform.hpp"
 #include "math/se3.hpp"
 #include "math/so3.hpp"
 #include "math/trajectory.hpp"
@@ -122,30 +121,15 @@ TEST(Se3, InterpolateEndsAndMiddle) {
   EXPECT_NEAR(se3::rotation_angle(mid), 0.5, 1e-12);
 }
 
-TEST(FramedTransform, ComposesMatchingFrames) {
-  const FramedTransform map_odom{"map", "odom",
-                                 se3::make(Eigen::Matrix3d::Identity(), Eigen::Vector3d(5, 0, 0))};
-  const FramedTransform odom_body{"odom", "body",
-                                  se3::make(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 1, 0))};
-  const FramedTransform map_body = map_odom * odom_body;
-  EXPECT_EQ(map_body.parent, "map");
-  EXPECT_EQ(map_body.child, "body");
-  EXPECT_TRUE(map_body.T_parent_child.translation().isApprox(Eigen::Vector3d(5, 1, 0)));
-  const FramedTransform body_map = map_body.inverse();
-  EXPECT_EQ(body_map.parent, "body");
-  EXPECT_TRUE((body_map * map_body).T_parent_child.isApprox(Eigen::Isometry3d::Identity()));
-}
-
-TEST(FramedTransform, RefusesMismatchedFrames) {
-  const FramedTransform map_odom{"map", "odom", Eigen::Isometry3d::Identity()};
-  const FramedTransform map_body{"map", "body", Eigen::Isometry3d::Identity()};
-  try {
-    (void)(map_odom * map_body);
-    FAIL() << "composition of mismatched frames did not throw";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("T_map_odom"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("T_map_body"), std::string::npos) << e.what();
-  }
+TEST(Se3, PlusAndMinusPerturbOnTheRightWithTranslationInTheBodyFrame) {
+  const Eigen::Isometry3d T =
+      se3::make(so3::exp(Eigen::Vector3d(0, 0, kPi / 2)), Eigen::Vector3d(10, 0, 0));
+  Vector6d xi = Vector6d::Zero();
+  xi(0) = 1.0;  // one metre along the body's x, which is the parent's y after the turn
+  EXPECT_TRUE(se3::plus(T, xi).translation().isApprox(Eigen::Vector3d(10, 1, 0), 1e-12));
+  xi << 0.3, -0.2, 0.1, 0.05, -0.02, 0.4;
+  EXPECT_TRUE(se3::minus(se3::plus(T, xi), T).isApprox(xi, 1e-12));
+  EXPECT_TRUE(se3::plus(T, se3::minus(T * se3::exp(xi), T)).isApprox(T * se3::exp(xi), 1e-12));
 }
 
 TEST(Trajectory, InterpolatesBetweenPosesAndRefusesGaps) {

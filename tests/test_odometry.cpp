@@ -117,6 +117,70 @@ TEST(ImuPropagation, FollowsTheTrueTrajectory) {
             0.03);
 }
 
+// The error-state transition inside propagate() is the Jacobian of the nominal
+// propagation in the state's own perturbation (pose on the right, math/se3.hpp): numeric
+// differences of propagate() through boxplus / boxminus carry any covariance P0 to the
+// same P as the filter does.
+TEST(ImuPropagation, CovarianceFollowsTheNumericJacobianOfThePropagation) {
+  NavState x0;
+  x0.R = so3::exp(Eigen::Vector3d(0.1, -0.2, 0.7));
+  x0.p = Eigen::Vector3d(3, -1, 0.5);
+  x0.v = Eigen::Vector3d(4, 1, -0.2);
+  x0.bg = Eigen::Vector3d(0.01, -0.02, 0.005);
+  x0.ba = Eigen::Vector3d(0.05, 0.02, -0.03);
+  x0.g = so3::exp(Eigen::Vector3d(0.02, -0.01, 0)) * Eigen::Vector3d(0, 0, -9.81);
+  std::vector<ImuSample> samples;
+  for (int k = 0; k <= 50; ++k) {  // 0.5 s at 100 Hz, turning and accelerating
+    const double t = k * 0.01;
+    samples.push_back({k * 10000, Eigen::Vector3d(0.3 * std::sin(t), 0.8, 9.6 + std::cos(3 * t)),
+                       Eigen::Vector3d(0.1, -0.3 * t, 0.6 + 0.2 * std::sin(2 * t))});
+  }
+  ImuNoiseConfig silent;  // no process noise: P0 is only carried
+  silent.accel_noise_density = silent.gyro_noise_density = 1e-12;
+  silent.accel_bias_random_walk = silent.gyro_bias_random_walk = 0.0;
+  silent.gravity_direction_random_walk = 0.0;
+  const auto run = [&](const NavState& start) {
+    NavState x = start;
+    StateMatrix unused = StateMatrix::Zero();
+    propagate(x, unused, 0, 500000, samples, silent, nullptr);
+    return x;
+  };
+  const NavState x1 = run(x0);
+  StateMatrix F_numeric;
+  const double eps = 1e-6;
+  for (int j = 0; j < kStateDim; ++j) {
+    StateVector dx = StateVector::Zero();
+    dx(j) = eps;
+    const StateVector plus = boxminus(run(boxplus(x0, dx)), x1);
+    const StateVector minus = boxminus(run(boxplus(x0, -dx)), x1);
+    F_numeric.col(j) = (plus - minus) / (2 * eps);
+  }
+  // A covariance with every block coupled.
+  StateMatrix L = StateMatrix::Zero();
+  for (int i = 0; i < kStateDim; ++i) {
+    for (int j = 0; j <= i; ++j) {
+      L(i, j) = i == j ? 1.0 + 0.1 * i : 0.3 * std::sin(1.0 + i * 7 + j * 3);
+    }
+  }
+  StateMatrix P = L * L.transpose();
+  const StateMatrix expected = F_numeric * P * F_numeric.transpose();
+  NavState x = x0;
+  propagate(x, P, 0, 500000, samples, silent, nullptr);
+  EXPECT_LT((P - expected).norm(), 1e-4 * expected.norm()) << (P - expected);
+}
+
+TEST(NavState, BoxminusInvertsBoxplus) {
+  NavState x;
+  x.R = so3::exp(Eigen::Vector3d(0.3, 0.1, -1.2));
+  x.p = Eigen::Vector3d(1, 2, 3);
+  x.g = so3::exp(Eigen::Vector3d(0.05, 0, 0)) * Eigen::Vector3d(0, 0, -9.81);
+  StateVector dx;
+  for (int i = 0; i < kStateDim; ++i) {
+    dx(i) = 0.01 * (i + 1) * (i % 2 == 0 ? 1 : -1);
+  }
+  EXPECT_TRUE(boxminus(boxplus(x, dx), x).isApprox(dx, 1e-9));
+}
+
 // A simulated drive, recorded once in memory: every IMU sample and sweep in the order a
 // live robot would deliver them, with its ground truth and the true biases.
 struct Recording {

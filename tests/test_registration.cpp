@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <limits>
 #include <random>
 
 #include "dataset/pcd_scan_reader.hpp"
@@ -73,8 +74,8 @@ TEST(Registration, RecoversAKnownPoseInARoom) {
       register_point_to_plane(source, map, Eigen::Isometry3d::Identity(), std::nullopt,
                               RegistrationConfig{}, Eigen::Vector3d(5.0, 5.0, 1.5));
   EXPECT_TRUE(r.converged);
-  EXPECT_LT((r.T_map_body.translation() - T_true.translation()).norm(), 0.01);
-  EXPECT_LT(so3::log(T_true.linear().transpose() * r.T_map_body.linear()).norm(), 1e-3);
+  EXPECT_LT((r.T_target_source.translation() - T_true.translation()).norm(), 0.01);
+  EXPECT_LT(so3::log(T_true.linear().transpose() * r.T_target_source.linear()).norm(), 1e-3);
   EXPECT_LT(r.rms_residual_m, 0.03);
   EXPECT_FALSE(r.degenerate);
 }
@@ -100,14 +101,66 @@ TEST(Registration, CorridorIsDegenerateAndThePriorHoldsIt) {
     }
   }
   PosePrior prior;
-  prior.T_map_body = se3::make(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.7, 0, 0));
+  prior.T_target_source = se3::make(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.7, 0, 0));
   prior.information = Matrix6d::Identity() * 100.0;  // 10 cm, 0.1 rad
   const RegistrationResult r =
-      register_point_to_plane(source, map, prior.T_map_body, prior, RegistrationConfig{});
+      register_point_to_plane(source, map, prior.T_target_source, prior, RegistrationConfig{});
   EXPECT_TRUE(r.degenerate);
   EXPECT_LT(r.translation_eigen_ratio, 0.02);
-  EXPECT_NEAR(r.T_map_body.translation().x(), 0.7, 0.05) << "along the corridor: the prior";
-  EXPECT_NEAR(r.T_map_body.translation().y(), 0.0, 0.01) << "across it: the walls";
+  EXPECT_NEAR(r.T_target_source.translation().x(), 0.7, 0.05) << "along the corridor: the prior";
+  EXPECT_NEAR(r.T_target_source.translation().y(), 0.0, 0.01) << "across it: the walls";
+}
+
+// The information and the steps are over the right perturbation (math/se3.hpp): from the
+// solution moved to T Exp(xi), one Gauss-Newton step comes back by -xi along every axis.
+// The body is yawed 90 degrees and x and y are constrained unequally, so Jacobians in any
+// other convention (translation in the map frame, say) would step the wrong way.
+TEST(Registration, StepsAndInformationAreOverTheRightPerturbation) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> u(0.0f, 10.0f);
+  std::normal_distribution<float> n(0.0f, 0.002f);
+  std::vector<Eigen::Vector3f> target;  // a floor, a wall x = 0 and a short wall y = 0
+  for (int i = 0; i < 4000; ++i) {
+    target.emplace_back(u(rng), u(rng), n(rng));
+    target.emplace_back(n(rng), u(rng), 0.3f * u(rng));
+    if (i % 8 == 0) {
+      target.emplace_back(u(rng), n(rng), 0.3f * u(rng));
+    }
+  }
+  const VoxelHashMap map = map_of(target);
+  const Eigen::Isometry3d T_true =
+      se3::make(so3::exp(Eigen::Vector3d(0, 0, M_PI / 2)), Eigen::Vector3d(5, 5, 1));
+  const auto source = transformed(target, T_true.inverse());
+  RegistrationConfig config;
+  config.cauchy_scale_m = 1e3;  // quadratic: one Gauss-Newton step is exact
+  const RegistrationResult r = register_point_to_plane(source, map, T_true, std::nullopt, config);
+  ASSERT_TRUE(r.converged);
+  ASSERT_GT(r.correspondences, 1000);
+  config.max_iterations = 1;
+  for (int axis = 0; axis < 6; ++axis) {
+    Vector6d xi = Vector6d::Zero();
+    xi(axis) = axis < 3 ? 0.02 : 0.002;
+    const Eigen::Isometry3d start = se3::plus(r.T_target_source, xi);
+    const RegistrationResult step =
+        register_point_to_plane(source, map, start, std::nullopt, config);
+    const Vector6d error = se3::minus(step.T_target_source, start) + xi;  // back by -xi?
+    EXPECT_LT(error.head<3>().norm(), 1e-3) << "axis " << axis << ": " << error.transpose();
+    EXPECT_LT(error.tail<3>().norm(), 1e-4) << "axis " << axis << ": " << error.transpose();
+  }
+}
+
+// Levenberg-Marquardt that cannot lower the cost has not converged: here a non-finite
+// start makes every step's cost NaN.
+TEST(Registration, AStallIsNotConvergence) {
+  std::mt19937 rng(5);
+  const VoxelHashMap map = map_of(room(rng, 0.01f));
+  PosePrior prior;
+  prior.information = Matrix6d::Identity();
+  Eigen::Isometry3d guess = Eigen::Isometry3d::Identity();
+  guess.translation().x() = std::numeric_limits<double>::quiet_NaN();
+  const RegistrationResult r =
+      register_point_to_plane(room(rng, 0.01f), map, guess, prior, RegistrationConfig{});
+  EXPECT_FALSE(r.converged);
 }
 
 TEST(Registration, EmptyMapLeavesTheGuess) {
@@ -115,7 +168,7 @@ TEST(Registration, EmptyMapLeavesTheGuess) {
   const Eigen::Isometry3d guess = se3::make(Eigen::Matrix3d::Identity(), Eigen::Vector3d(1, 2, 3));
   const RegistrationResult r =
       register_point_to_plane({{1, 1, 1}}, map, guess, std::nullopt, RegistrationConfig{});
-  EXPECT_TRUE(r.T_map_body.isApprox(guess));
+  EXPECT_TRUE(r.T_target_source.isApprox(guess));
   EXPECT_EQ(r.correspondences, 0);
 }
 
@@ -148,7 +201,7 @@ TEST(Registration, RecoversTheRealPairWithinFiveCentimetresAndHalfADegree) {
   const std::vector<Eigen::Vector3f> source = read_cloud(dir + "251371071.pcd", 0.3f);
   const RegistrationResult r = register_point_to_plane(source, map, Eigen::Isometry3d::Identity(),
                                                        std::nullopt, RegistrationConfig{});
-  const Eigen::Isometry3d error = T_target_source.inverse() * r.T_map_body;
+  const Eigen::Isometry3d error = T_target_source.inverse() * r.T_target_source;
   EXPECT_LT(error.translation().norm(), 0.05) << error.translation().transpose();
   EXPECT_LT(se3::rotation_angle(error) * 180.0 / M_PI, 0.5);
   // Sanity: the pose rests on many planes, not a lucky few. Only part of this real scan

@@ -46,5 +46,45 @@ TEST(SystemConfig, ABadMapServerValueNamesIt) {
   expect_config_error("map_server:\n  reply_threads: 0\n", "reply_threads must be 1 to 64, got 0");
 }
 
+// Each setting has one home: the descriptor and the submap rule (Eq. 2) are system
+// sections, so the builder's loop closure and the map service cannot be given other ones
+// that would be accepted and then ignored, or cut a built map and merged updates apart.
+TEST(SystemConfig, TheDescriptorAndTheSubmapRuleHaveOneHomeEach) {
+  expect_config_error("map_builder:\n  loops:\n    descriptor:\n      sectors: 30\n",
+                      "unknown key 'map_builder.loops.descriptor'");
+  expect_config_error("map_server:\n  service:\n    submaps:\n      max_keyframes: 5\n",
+                      "unknown key 'map_server.service.submaps'");
+  const std::string path = ::testing::TempDir() + "liloc_system_one_home.yaml";
+  std::ofstream(path) << "submaps:\n  max_keyframes: 5\ndescriptor:\n  sectors: 30\n";
+  const SystemConfig config = load_config<SystemConfig>(path);
+  EXPECT_EQ(config.map_server_node().submaps.max_keyframes, 5);
+  EXPECT_EQ(config.map_server_node().descriptor.sectors, 30);
+}
+
+// A process reads its own sections and knows the others by name: the shipped config loads
+// in each, a misspelled section is still an error, and the sections every process knows
+// are the system config's.
+struct SectionNames {
+  std::vector<std::string> names;
+  template <class T>
+  void operator()(const char* key, const T&) {
+    names.push_back(key);
+  }
+};
+
+TEST(SystemConfig, ProcessesReadTheirSectionsAndKnowTheOthers) {
+  SystemConfig system;
+  SectionNames visited;
+  system.visit_fields(visited);
+  const std::vector<std::string> known(node::kSystemSections.begin(), node::kSystemSections.end());
+  EXPECT_EQ(visited.names, known);
+  const std::string shipped = std::string(LILOC_SOURCE_DIR) + "/config/liloc.yaml";
+  EXPECT_NO_THROW(load_config<node::ProcessConfig<OdometryNodeConfig>>(shipped));
+  EXPECT_NO_THROW(load_config<node::ProcessConfig<MapServerNodeConfig>>(shipped));
+  const std::string path = ::testing::TempDir() + "liloc_system_process.yaml";
+  std::ofstream(path) << "map_server:\n  reply_threads: 2\nodometyr:\n  use_imu: false\n";
+  EXPECT_THROW(load_config<node::ProcessConfig<OdometryNodeConfig>>(path), ConfigError);
+}
+
 }  // namespace
 }  // namespace liloc

@@ -18,7 +18,7 @@
 #include "eval/trajectory_metrics.hpp"
 #include "odometry/lidar_inertial_odometry.hpp"
 #include "sim/lidar_model.hpp"
-#include "sim/random.hpp"
+#include "sim/session_recipe.hpp"
 #include "sim/simulation_config.hpp"
 
 namespace {
@@ -46,21 +46,12 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
                 const std::string& config_path) {
   sim::SimulationConfig sim_config;
   sim_config.world.kind = world_kind;
-  sim_config.sessions.a_length_m *= length_scale;
-  sim_config.sessions.b_inside_m *= length_scale;
-  sim_config.sessions.b_excursion_m *= length_scale;
-  sim_config.sessions.c_length_m *= length_scale;
-  sim_config.sessions.d_length_m *= length_scale;
-  const sim::GeneratedWorld generated = sim::generate_world(sim_config.world);
-  sim::World world = generated.world;
-  const uint64_t seed = sim::hash_combine(static_cast<uint64_t>(sim_config.world.seed),
-                                          static_cast<uint64_t>(session[0]));
-  const sim::SessionPlan plan = sim::plan_session(
-      session, generated.world, generated.mapped_max_x_m, sim_config.sessions, seed);
-  if (plan.day > 0) {
-    sim::apply_day_changes(world, sim_config.world.seed + 1, sim_config.changes);
-  }
-  const sim::VehicleTrajectory trajectory(world, plan.waypoints, sim_config.motion, seed);
+  sim::scale_session_lengths(sim_config.sessions, length_scale);
+  const sim::SimulatedSessions simulated(sim_config);
+  const sim::SimulatedSession recipe = simulated.session(session);
+  const sim::World& world = *recipe.world;
+  const uint64_t seed = recipe.seed;
+  const sim::VehicleTrajectory trajectory(world, recipe.plan.waypoints, sim_config.motion, seed);
   if (clean_imu) {
     sim_config.imu.accel_noise_density = sim_config.imu.gyro_noise_density = 1e-9;
     sim_config.imu.accel_bias_random_walk = sim_config.imu.gyro_bias_random_walk = 0.0;
@@ -68,7 +59,7 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   }
   const sim::SensorRig rig = sim_config.rig.rig();
   const sim::SessionSimulator simulator(world, trajectory, sim::lidar_spec(lidar), rig,
-                                        sim_config.imu, seed, sim_config.start_utime);
+                                        sim_config.imu, seed, recipe.start_utime);
 
   OdometryConfig config =
       config_path.empty() ? OdometryConfig{} : load_config<OdometryConfig>(config_path, "odometry");
@@ -91,10 +82,10 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
     for (const OdometryEstimate& e : out) {
       estimate.push_back({e.utime_us * 1e-6, e.T_odom_body});
       if (trace > 0 && estimate.size() % trace == 0) {
-        const double t = e.utime_us * 1e-6 - sim_config.start_utime * 1e-6;
+        const double t = e.utime_us * 1e-6 - recipe.start_utime * 1e-6;
         const Eigen::Isometry3d gt = trajectory.pose(t);
         const Eigen::Isometry3d gt0 =
-            trajectory.pose(estimate.front().time_s - sim_config.start_utime * 1e-6);
+            trajectory.pose(estimate.front().time_s - recipe.start_utime * 1e-6);
         const Eigen::Isometry3d rel_gt = gt0.inverse() * gt;
         std::fprintf(stderr,
                      "t %6.1f est %8.2f %8.2f %6.2f gt %8.2f %8.2f %6.2f fit %.3f corr %5d "

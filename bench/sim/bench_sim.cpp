@@ -10,7 +10,7 @@
 #include "eval/json_writer.hpp"
 #include "liloc_sim/session_writer.hpp"
 #include "sim/lidar_model.hpp"
-#include "sim/random.hpp"
+#include "sim/session_recipe.hpp"
 
 namespace {
 using namespace liloc;
@@ -49,22 +49,16 @@ int main(int argc, char** argv) {
     for (const std::string& kind : split_list(worlds)) {
       sim::SimulationConfig config;
       config.world.kind = kind;
-      const sim::GeneratedWorld base = sim::generate_world(config.world);
-      sim::World changed = base.world;
-      sim::apply_day_changes(changed, config.world.seed + 1, config.changes);
+      const sim::SimulatedSessions simulated(config);
       const std::vector<std::string> names =
           kind == "campus" ? split_list(sessions) : std::vector<std::string>{"A"};
       for (size_t si = 0; si < names.size(); ++si) {
         const std::string& name = names[si];
-        const uint64_t seed = sim::hash_combine(static_cast<uint64_t>(config.world.seed),
-                                                static_cast<uint64_t>(name[0]));
-        const sim::SessionPlan plan =
-            sim::plan_session(name, base.world, base.mapped_max_x_m, config.sessions, seed);
+        const sim::SimulatedSession session = simulated.session(name);
         for (const std::string& model : models) {
           const std::string dir = scratch + "/" + kind + "/" + model + "/" + name;
           Row row{kind, model, name,
-                  tools::write_session(plan.day == 0 ? base.world : changed, plan, config, model,
-                                       config.start_utime, seed, dir, threads, false)};
+                  tools::write_session(session, config, model, dir, threads, false)};
           const tools::SessionOutput& o = row.out;
           std::printf("| %s | %s | %s | %.0f | %.0f | %lld | %.0f | %.0f | %.0f | %.1f | %.1f |\n",
                       kind.c_str(), model.c_str(), name.c_str(), o.length_m, o.duration_s,

@@ -10,7 +10,7 @@
 #include "liloc/map_update_t.hpp"
 #include "liloc/submap_request_t.hpp"
 #include "liloc/submap_t.hpp"
-#include "map/map_service.hpp"
+#include "map_service/map_service.hpp"
 
 namespace liloc::bridge {
 

@@ -93,6 +93,10 @@ class YamlReader {
     }
   }
 
+  // A key the struct knows but does not read (a section another process uses): it is
+  // not an unknown key, and its contents are that process's to check.
+  void allow(const char* key) { visited_.insert(key); }
+
   // Throws for keys in the map that the struct did not visit.
   void reject_unknown_keys() const {
     for (const auto& entry : node_) {
@@ -209,6 +213,7 @@ class YamlWriter {
     out_ << YAML::Key << key << YAML::Value;
     write(value);
   }
+  void allow(const char*) {}  // not read, so not written
 
   template <class T>
   void write(const T& value) {

@@ -35,7 +35,7 @@ void check_consistent(const PolarDescriptor& d, const char* what) {
   }
 }
 
-// The matrix Eq. 5 compares, column (sector) by column: per cell, the height above the
+// The matrix Eq. 4's distance compares, column (sector) by column: per cell, the height above the
 // descriptor's floor and the normal in the cell's polar frame (radial, tangential, up),
 // where a column shift compares normals as a rotation of the sensor would; zero for
 // empty cells. Each column's norm is kept, as it does not depend on the shift.

@@ -1,9 +1,9 @@
 #pragma once
-// The polar descriptor of a keyframe (paper Eq. 4, after Scan Context): the cloud, in
+// The polar descriptor of a keyframe (paper Eq. 3, after Scan Context): the cloud, in
 // its body frame, cut into N_r rings x N_a sectors around the sensor; every cell keeps
 // the maximum height of its points and their normal direction. Comparing two
 // descriptors over every column shift gives their distance and the yaw between them
-// (Eq. 5), which coarse-to-fine initialization and loop closure use.
+// (Eq. 4), which coarse-to-fine initialization and loop closure use.
 
 #include <Eigen/Core>
 #include <cstddef>
@@ -37,7 +37,7 @@ struct PolarDescriptor {
   std::vector<unsigned char> occupied;
 };
 
-// Eq. 4. Ring i holds ranges rho = |(x, y)| in [i, i + 1) * max_range_m / rings, sector j
+// Eq. 3. Ring i holds ranges rho = |(x, y)| in [i, i + 1) * max_range_m / rings, sector j
 // azimuths atan2(y, x) in [j, j + 1) * 2 pi / sectors (counter-clockwise from +x).
 // Heights are z in the cloud's frame, i.e. relative to the sensor; points beyond
 // max_range_m or not finite are ignored; cells without a point stay unoccupied (height 0,
@@ -49,7 +49,7 @@ struct PolarDescriptor {
 // Not from the covariance of a cell's own points: cells are metres wide and mix ground
 // with walls or crowns in proportions that change with the viewpoint, and beyond ~20 m a
 // sparse sensor puts one ring into a cell, whose points lie on a line and have no normal.
-// The max-height surface is what Eq. 4 describes; its slope is defined for every cell,
+// The max-height surface is what Eq. 3 describes; its slope is defined for every cell,
 // changes smoothly with the viewpoint and says where the skyline rises (a wall facing
 // the sensor tilts its cell's normal towards it).
 //
@@ -66,7 +66,7 @@ PolarDescriptor make_level_polar_descriptor(const PointCloud& cloud_body,
                                             const Eigen::Matrix3d& R_world_body,
                                             const PolarDescriptorConfig& config);
 
-// Eq. 5 (the "XOR" of two descriptors: Scan Context's column-wise distance, minimized over
+// Eq. 4 (the "XOR" of two descriptors: Scan Context's column-wise distance, minimized over
 // column shifts), with heights and normals.
 //
 // Column j of a descriptor is the vector, over its rings i, of

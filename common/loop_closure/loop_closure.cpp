@@ -33,16 +33,6 @@ std::vector<Eigen::Vector3f> transformed(const std::vector<Eigen::Vector3f>& poi
   return out;
 }
 
-// The registration's information is over d = (dp, dtheta) with dp in the target's
-// (from-body) frame; the pose graph's right perturbation T Exp(xi) moves the translation
-// by R rho to first order, so d = diag(R, I) xi and the information over xi is
-// J^T H J.
-Matrix6d to_right_perturbation(const Matrix6d& H, const Eigen::Matrix3d& R) {
-  Matrix6d J = Matrix6d::Identity();
-  J.topLeftCorner<3, 3>() = R;
-  return J.transpose() * H * J;
-}
-
 }  // namespace
 
 void LoopClosureConfig::validate() const {
@@ -70,11 +60,13 @@ void LoopClosureConfig::validate() const {
   }
   registration.validate();
   target_map.validate();
-  descriptor.validate();
 }
 
-LoopClosureDetector::LoopClosureDetector(const LoopClosureConfig& config) : config_(config) {
+LoopClosureDetector::LoopClosureDetector(const LoopClosureConfig& config,
+                                         const PolarDescriptorConfig& descriptor)
+    : config_(config), descriptor_(descriptor) {
   config_.validate();
+  descriptor_.validate();
 }
 
 std::vector<LoopClosure> LoopClosureDetector::add(const MapKeyframe& keyframe,
@@ -102,7 +94,7 @@ std::vector<LoopClosure> LoopClosureDetector::add(const MapKeyframe& keyframe,
                                                       .norm();
   // Levelled: on a slope the body's own frame would tilt far cells by metres.
   query.descriptor =
-      make_level_polar_descriptor(cloud_body, keyframe.T_map_body.linear(), config_.descriptor);
+      make_level_polar_descriptor(cloud_body, keyframe.T_map_body.linear(), descriptor_);
   query.points_body =
       voxel_downsample(cloud_body, static_cast<float>(config_.verify_voxel_m)).points;
 
@@ -195,7 +187,7 @@ bool LoopClosureDetector::verify(const Stored& query, const Candidate& candidate
   Eigen::Isometry3d T_map_query_start = query.T_map_body;
   const double odom_yaw = yaw_of(query.T_map_body.linear()) - yaw_of(target.T_map_body.linear());
   const double yaw_error = wrap_angle(candidate.match.yaw_rad - odom_yaw);
-  if (std::abs(yaw_error) > 2.0 * kPi / config_.descriptor.sectors) {
+  if (std::abs(yaw_error) > 2.0 * kPi / descriptor_.sectors) {
     ++stats_.yaw_refined;
     T_map_query_start.linear() =
         Eigen::AngleAxisd(yaw_error, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
@@ -218,7 +210,7 @@ bool LoopClosureDetector::verify(const Stored& query, const Candidate& candidate
     ++stats_.rejected_fitness;
     return false;
   }
-  const Eigen::Isometry3d correction = T_target_query_odom.inverse() * result.T_map_body;
+  const Eigen::Isometry3d correction = T_target_query_odom.inverse() * result.T_target_source;
   const double travelled_m = query.path_m - target.path_m;
   if (correction.translation().norm() >
           config_.correction_floor_m + config_.max_drift_fraction * travelled_m ||
@@ -230,7 +222,7 @@ bool LoopClosureDetector::verify(const Stored& query, const Candidate& candidate
 
   // Covariance: the registration's, as if from independent_correspondences independent
   // matches, plus the target map's own inconsistency.
-  const Matrix6d H = to_right_perturbation(result.lidar_information, result.T_map_body.linear());
+  const Matrix6d& H = result.information;  // over the right perturbation of T_from_to
   const double inflation =
       std::max(1.0, static_cast<double>(result.correspondences) /
                         static_cast<double>(config_.independent_correspondences));
@@ -244,7 +236,7 @@ bool LoopClosureDetector::verify(const Stored& query, const Candidate& candidate
   ++stats_.verified;
   closure.from_id = target.id;
   closure.to_id = query.id;
-  closure.T_from_to = result.T_map_body;
+  closure.T_from_to = result.T_target_source;
   closure.information = 0.5 * (information + information.transpose());
   closure.fitness_m = result.rms_residual_m;
   closure.descriptor_distance = candidate.match.distance;

@@ -1,7 +1,7 @@
 #pragma once
 // Loop closure for building one consistent central session from a drive: each new
 // keyframe is compared with earlier keyframes near its estimated position (polar
-// descriptor, paper Eqs. 4-5), and the best candidates are verified by registering the
+// descriptor, paper Eqs. 3-4), and the best candidates are verified by registering the
 // keyframe to a local map around the candidate (point-to-plane, Eq. 6). A verified
 // closure is a relative pose with its information, an edge for the pose graph.
 
@@ -27,7 +27,7 @@ struct LoopClosureConfig {
   // ... and at least this much older: the last 30 s (~200 m) are what the odometry
   // registered against its own map; matching them adds nothing and hides real loops.
   double min_time_gap_s = 30.0;
-  // Eq. 5 distance above which a nearby keyframe is not tried. Simulated campus, all four
+  // Eq. 4 distance above which a nearby keyframe is not tried. Simulated campus, all four
   // LiDAR models: the same place within 5 m, up to 0.37; places 50 m and more apart,
   // above 0.52 for 99 % of the pairs.
   double max_descriptor_distance = 0.45;
@@ -79,7 +79,6 @@ struct LoopClosureConfig {
     return c;
   }();
   VoxelMapConfig target_map;  // the local map built around a candidate
-  PolarDescriptorConfig descriptor;
 
   template <class V>
   void visit_fields(V& v) {
@@ -101,7 +100,6 @@ struct LoopClosureConfig {
     v("correction_floor_rad", correction_floor_rad);
     v("registration", registration);
     v("target_map", target_map);
-    v("descriptor", descriptor);
   }
   void validate() const;
 };
@@ -111,8 +109,7 @@ struct LoopClosure {
   int64_t to_id = 0;    // the newer one
   // Relative pose measured by registration: from-body <- to-body.
   Eigen::Isometry3d T_from_to = Eigen::Isometry3d::Identity();
-  // For the pose graph: over the right perturbation T_from_to * Exp(d), d = (translation
-  // m in the to-body frame, rotation rad).
+  // For the pose graph: over the right perturbation of T_from_to (math/se3.hpp).
   Matrix6d information = Matrix6d::Identity();
   double fitness_m = 0.0;  // RMS point-to-plane distance of the matches
   double descriptor_distance = 0.0;
@@ -135,7 +132,9 @@ struct LoopClosureStats {
 
 class LoopClosureDetector {
  public:
-  explicit LoopClosureDetector(const LoopClosureConfig& config);
+  // `descriptor`: the system's one descriptor (the map's and the initializer's too).
+  explicit LoopClosureDetector(const LoopClosureConfig& config,
+                               const PolarDescriptorConfig& descriptor = {});
 
   // Adds the next keyframe (pose as currently estimated by odometry, cloud in its body
   // frame) and returns the verified closures between earlier keyframes (from) and it
@@ -166,6 +165,7 @@ class LoopClosureDetector {
               LoopClosure& closure);
 
   LoopClosureConfig config_;
+  PolarDescriptorConfig descriptor_;
   std::vector<Stored> keyframes_;  // in time order
   LoopClosureStats stats_;
 };

@@ -1,6 +1,6 @@
 #pragma once
 // The descriptors stored with a map's keyframes: the level polar descriptor (paper
-// Eqs. 4-5) of each keyframe's cloud, levelled with its map pose, encoded for storage.
+// Eq. 3) of each keyframe's cloud, levelled with its map pose, encoded for storage.
 
 #include <cstdint>
 #include <map>

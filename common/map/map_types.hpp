@@ -7,10 +7,14 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cstdint>
+#include <map>
+#include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "math/se3.hpp"
+#include "pointcloud/point_cloud.hpp"
 
 namespace liloc {
 
@@ -54,6 +58,26 @@ struct MapData {
   std::vector<MapKeyframe> keyframes;  // in id order
   std::vector<Submap> submaps;         // in id order
   std::vector<PoseGraphEdge> edges;
+};
+
+// A change that grows a map (a merged update): keyframes, submaps and edges appended to
+// it, with the new keyframes' clouds (body frame), shared with whoever serves them.
+struct MapDelta {
+  std::vector<MapKeyframe> keyframes;
+  std::vector<Submap> submaps;
+  std::vector<PoseGraphEdge> edges;
+  std::map<int64_t, std::shared_ptr<const PointCloud>> clouds;  // by keyframe id
+
+  // Appends this change to a map (MapData) or to an earlier change (MapDelta).
+  template <class Target>
+  void append_to(Target& target) const {
+    target.keyframes.insert(target.keyframes.end(), keyframes.begin(), keyframes.end());
+    target.submaps.insert(target.submaps.end(), submaps.begin(), submaps.end());
+    target.edges.insert(target.edges.end(), edges.begin(), edges.end());
+    if constexpr (std::is_same_v<Target, MapDelta>) {
+      target.clouds.insert(clouds.begin(), clouds.end());
+    }
+  }
 };
 
 }  // namespace liloc

@@ -1,7 +1,7 @@
 #pragma once
 // Adaptive submap joining (paper Section IV-A) and the queries on the central session:
 // Tree_p over keyframe (prior pose) positions, Tree_m over submap centroids, and the
-// overlap of a pose's neighbourhood with a submap (Eq. 9) that switches RLM and ILM.
+// overlap of a pose's neighbourhood with a submap (Eq. 11) that switches RLM and ILM.
 
 #include <optional>
 #include <vector>
@@ -38,8 +38,8 @@ std::vector<Submap> join_submaps(std::vector<MapKeyframe>& keyframes, const Subm
 void set_submap_geometry(Submap& submap, const std::vector<Eigen::Vector3d>& keyframe_positions,
                          const SubmapConfig& config);
 
-// Eq. 9: the fraction of the square [x +- l, y +- l] around `position` that lies in the
-// bounds.
+// Eq. 11: the overlap, the fraction of the square [x +- l, y +- l] around `position` that lies in
+// the bounds.
 double overlap_ratio(const Eigen::Vector3d& position, double half_side_m, const BoundsXY& bounds);
 
 class SubmapDatabase {

@@ -51,6 +51,15 @@ Vector6d log(const Eigen::Isometry3d& T) {
   return xi;
 }
 
+Eigen::Isometry3d plus(const Eigen::Isometry3d& T, const Vector6d& xi) {
+  const Eigen::Isometry3d T_new = T * exp(xi);
+  return make(so3::normalize(T_new.linear()), T_new.translation());
+}
+
+Vector6d minus(const Eigen::Isometry3d& T, const Eigen::Isometry3d& T_ref) {
+  return log(T_ref.inverse() * T);
+}
+
 Eigen::Isometry3d interpolate(const Eigen::Isometry3d& T_a, const Eigen::Isometry3d& T_b,
                               double alpha) {
   const Eigen::Matrix3d R_a = T_a.linear();

@@ -54,17 +54,21 @@ PropagationStats propagate(NavState& x, StateMatrix& P, int64_t t_from, int64_t 
     if (motion != nullptr) {
       motion->add({t, x.R, x.p, x.v, omega, accel_local});
     }
-    // Error-state transition F and process noise Q over dt.
+    // Error-state transition F and process noise Q over dt. The position error rho is
+    // in the body frame: it turns with the body (E = Exp(-omega dt)) and takes the world-
+    // frame position error of the step through R^T.
     const Eigen::Matrix3d R = x.R;
+    const Eigen::Matrix3d E = so3::exp(-omega * dt);
     const Eigen::Matrix3d acc_hat = so3::hat(acc);
     const Eigen::Matrix<double, 3, 2> G = gravity_jacobian(x.g);
     StateMatrix F = StateMatrix::Identity();
-    F.block<3, 3>(kRot, kRot) = so3::exp(-omega * dt);
+    F.block<3, 3>(kPos, kPos) = E;
+    F.block<3, 3>(kPos, kRot) = -0.5 * E * acc_hat * dt * dt;
+    F.block<3, 3>(kPos, kVel) = E * R.transpose() * dt;
+    F.block<3, 3>(kPos, kBa) = -0.5 * E * dt * dt;
+    F.block<3, 2>(kPos, kGrav) = 0.5 * E * R.transpose() * G * dt * dt;
+    F.block<3, 3>(kRot, kRot) = E;
     F.block<3, 3>(kRot, kBg) = -so3::right_jacobian(omega * dt) * dt;
-    F.block<3, 3>(kPos, kRot) = -0.5 * R * acc_hat * dt * dt;
-    F.block<3, 3>(kPos, kVel) = Eigen::Matrix3d::Identity() * dt;
-    F.block<3, 3>(kPos, kBa) = -0.5 * R * dt * dt;
-    F.block<3, 2>(kPos, kGrav) = 0.5 * G * dt * dt;
     F.block<3, 3>(kVel, kRot) = -R * acc_hat * dt;
     F.block<3, 3>(kVel, kBa) = -R * dt;
     F.block<3, 2>(kVel, kGrav) = G * dt;

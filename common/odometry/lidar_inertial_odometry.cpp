@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
+#include <type_traits>
 
 #include "math/so3.hpp"
 #include "odometry/scan_deskewer.hpp"
@@ -20,13 +21,18 @@ double ms_since(Clock::time_point t) {
 
 int64_t to_us(double s) { return static_cast<int64_t>(std::llround(s * 1e6)); }
 
-// Registration orders the pose tangent (dp, dtheta), the state (dtheta, dp): swapping
-// the 3x3 blocks converts a 6x6 matrix either way.
-Matrix6d swap_pose_blocks(const Matrix6d& m) {
-  Matrix6d out;
-  out << m.bottomRightCorner<3, 3>(), m.bottomLeftCorner<3, 3>(), m.topRightCorner<3, 3>(),
-      m.topLeftCorner<3, 3>();
-  return out;
+// Runs one step of the sweep's pipeline and sets `ms` to its wall time.
+template <class Step>
+decltype(auto) timed(double& ms, Step&& step) {
+  const Clock::time_point start = Clock::now();
+  if constexpr (std::is_void_v<decltype(step())>) {
+    step();
+    ms = ms_since(start);
+  } else {
+    decltype(auto) out = step();
+    ms = ms_since(start);
+    return out;
+  }
 }
 
 // One point per voxel (the first, so that it keeps its own time).
@@ -284,144 +290,149 @@ void LidarInertialOdometry::zero_velocity_update() {
 void LidarInertialOdometry::update(const RegistrationResult& result) {
   // The registration solved for the pose with the filter's pose marginal as prior. The
   // other states follow through their correlation with the pose, and the covariance
-  // takes the LiDAR information: the iterated-EKF update, done on the pose block.
-  const Eigen::Isometry3d T_pred = T_local_body();
-  const Vector6d d_reg = pose_minus(result.T_map_body, T_pred);
-  Vector6d d_pose;
-  d_pose << d_reg.tail<3>(), d_reg.head<3>();
+  // takes the LiDAR information: the iterated-EKF update, done on the pose block (both
+  // in the right perturbation of math/se3.hpp).
+  const Vector6d d_pose = se3::minus(result.T_target_source, T_local_body());
   const Matrix6d P_pp = P_.topLeftCorner<6, 6>();
   const Matrix6d P_pp_inv = P_pp.inverse();
-  const Matrix6d posterior = (P_pp_inv + swap_pose_blocks(result.lidar_information)).inverse();
+  const Matrix6d posterior = (P_pp_inv + result.information).inverse();
   if (config_.use_imu) {
     const Eigen::Matrix<double, kStateDim, 6> A = P_.leftCols<6>() * P_pp_inv;
     x_ = boxplus(x_, A * d_pose);
     P_ -= A * (P_pp - posterior) * A.transpose();
     P_ = 0.5 * (P_ + P_.transpose());
   } else {
-    x_.R = result.T_map_body.linear();
-    x_.p = result.T_map_body.translation();
+    x_.R = result.T_target_source.linear();
+    x_.p = result.T_target_source.translation();
     P_.topLeftCorner<6, 6>() = posterior;
   }
 }
 
-Matrix6d LidarInertialOdometry::pose_covariance_right() const {
-  // (dtheta, dp_local) -> (rho_body, theta): rho = R^T dp.
-  Matrix6d J = Matrix6d::Zero();
-  J.block<3, 3>(0, 3) = x_.R.transpose();
-  J.block<3, 3>(3, 0) = Eigen::Matrix3d::Identity();
-  return J * P_.topLeftCorner<6, 6>() * J.transpose();
-}
-
 OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int64_t start_utime,
                                                      int64_t end_utime) {
-  const Clock::time_point t_start = Clock::now();
+  const Clock::time_point start = Clock::now();
   OdometryEstimate est;
   est.utime_us = end_utime;
+  Sweep sweep =
+      timed(est.timings.preprocess_ms, [&] { return preprocess(scan, start_utime, end_utime); });
+  timed(est.timings.propagate_ms, [&] { predict_and_deskew(sweep, est); });
+  if (static_cast<int>(sweep.valid.size()) >= config_.min_points) {
+    timed(est.timings.register_ms, [&] { register_sweep(sweep, est); });
+    timed(est.timings.map_ms, [&] { update_map(sweep); });
+    est.keyframe = timed(est.timings.keyframe_ms, [&] { return make_keyframe(sweep); });
+  } else {
+    ++counters_.scans_too_small;
+  }
+  finish_estimate(est);
+  est.timings.total_ms = ms_since(start);
+  return est;
+}
 
-  // Preprocess: the vehicle itself and far returns out, one point per voxel.
-  Clock::time_point t = Clock::now();
-  std::vector<LidarPoint> valid;
-  valid.reserve(scan.points.size());
+LidarInertialOdometry::Sweep LidarInertialOdometry::preprocess(const LidarScan& scan,
+                                                               int64_t start_utime,
+                                                               int64_t end_utime) const {
+  // The vehicle itself and far returns out, one point per voxel.
+  Sweep sweep;
+  sweep.start_utime = start_utime;
+  sweep.end_utime = end_utime;
+  sweep.valid.reserve(scan.points.size());
   const float min_sq = static_cast<float>(config_.min_range_m * config_.min_range_m);
   const float max_sq = static_cast<float>(config_.max_range_m * config_.max_range_m);
   for (const LidarPoint& p : scan.points) {
     const float r2 = p.position_m.squaredNorm();
     if (r2 >= min_sq && r2 <= max_sq) {
-      valid.push_back(p);
+      sweep.valid.push_back(p);
     }
   }
-  const std::vector<LidarPoint> sparse =
-      first_per_voxel(valid, static_cast<float>(config_.registration_voxel_m));
-  est.timings.preprocess_ms = ms_since(t);
+  sweep.sparse = first_per_voxel(sweep.valid, static_cast<float>(config_.registration_voxel_m));
+  return sweep;
+}
 
-  // Predict to the sweep's end and deskew.
-  t = Clock::now();
-  const Eigen::Isometry3d T_prev = T_local_body();
-  MotionProfile motion;
-  predict(end_utime, motion);
-  if (config_.use_imu && config_.zero_velocity_update && standing_still(start_utime, end_utime)) {
+void LidarInertialOdometry::predict_and_deskew(Sweep& sweep, OdometryEstimate& est) {
+  sweep.T_local_body_before = T_local_body();
+  predict(sweep.end_utime, sweep.motion);
+  if (config_.use_imu && config_.zero_velocity_update &&
+      standing_still(sweep.start_utime, sweep.end_utime)) {
     zero_velocity_update();
     est.standing = true;
     ++counters_.standstill_scans;
   }
-  const std::vector<Eigen::Vector3f> points_body =
-      deskew(sparse, start_utime, end_utime, motion, T_body_lidar_);
-  est.timings.propagate_ms = ms_since(t);
+  sweep.points_body =
+      deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, sweep.motion, T_body_lidar_);
+}
 
-  const bool enough = static_cast<int>(valid.size()) >= config_.min_points;
-  if (!enough) {
-    ++counters_.scans_too_small;
-  } else if (!map_.empty()) {
-    t = Clock::now();
-    PosePrior prior;
-    prior.T_map_body = T_local_body();
-    const Matrix6d P_pp = P_.topLeftCorner<6, 6>();
-    prior.information = swap_pose_blocks(P_pp).inverse();
-    const RegistrationResult result = register_point_to_plane(
-        strided(points_body, config_.max_registration_points), map_, prior.T_map_body, prior,
-        registration_config(), T_body_lidar_.translation());
-    update(result);
-    if (!config_.use_imu) {
-      const double dt = std::max((end_utime - start_utime) * 1e-6, 1e-3);
-      twist_.head<3>() = T_prev.linear().transpose() * (x_.p - T_prev.translation()) / dt;
-      twist_.tail<3>() = so3::log(T_prev.linear().transpose() * x_.R) / dt;
-      x_.v = x_.R * twist_.head<3>();
-    }
-    est.registered = true;
-    est.fitness_m = result.rms_residual_m;
-    est.correspondences = result.correspondences;
-    est.degenerate = result.degenerate;
-    est.translation_eigen_ratio = result.translation_eigen_ratio;
-    est.rotation_eigen_ratio = result.rotation_eigen_ratio;
-    counters_.degenerate_scans += result.degenerate ? 1 : 0;
-    est.timings.register_ms = ms_since(t);
-  } else {
-    est.registered = true;  // the first sweep defines the map
+void LidarInertialOdometry::register_sweep(const Sweep& sweep, OdometryEstimate& est) {
+  est.registered = true;
+  if (map_.empty()) {
+    return;  // the first sweep defines the map
   }
-
-  if (enough) {
-    t = Clock::now();
-    const Eigen::Isometry3d moved = last_insert_T_local_body_.inverse() * T_local_body();
-    if (!have_map_insert_ || moved.translation().norm() >= config_.map_insert_translation_m ||
-        se3::rotation_angle(moved) >= config_.map_insert_rotation_rad) {
-      const Eigen::Isometry3f T = T_local_body().cast<float>();
-      std::vector<Eigen::Vector3f> world;
-      world.reserve(points_body.size());
-      for (const Eigen::Vector3f& p : points_body) {
-        world.push_back(T * p);
-      }
-      map_.insert(world);
-      have_map_insert_ = true;
-      last_insert_T_local_body_ = T_local_body();
-    }
-    if (++sweeps_since_cleanup_ >= 10) {
-      map_.remove_far(x_.p);
-      sweeps_since_cleanup_ = 0;
-    }
-    est.timings.map_ms = ms_since(t);
-
-    const Eigen::Isometry3d delta = last_keyframe_T_local_body_.inverse() * T_local_body();
-    if (!have_keyframe_ || delta.translation().norm() >= config_.keyframe_translation_m ||
-        se3::rotation_angle(delta) >= config_.keyframe_rotation_rad) {
-      t = Clock::now();
-      const std::vector<Eigen::Vector3f> full =
-          deskew(valid, start_utime, end_utime, motion, T_body_lidar_);
-      PointCloud cloud;
-      cloud.reserve(full.size());
-      for (size_t i = 0; i < full.size(); ++i) {
-        cloud.push_back(full[i], valid[i].intensity);
-      }
-      Keyframe kf;
-      kf.id = next_keyframe_id_++;
-      kf.cloud_body = voxel_downsample(cloud, static_cast<float>(config_.keyframe_voxel_m));
-      est.keyframe = std::move(kf);
-      have_keyframe_ = true;
-      last_keyframe_T_local_body_ = T_local_body();
-      ++counters_.keyframes;
-      est.timings.keyframe_ms = ms_since(t);
-    }
+  // Point-to-plane registration (Eq. 6) against the local map, the prediction as prior.
+  PosePrior prior;
+  prior.T_target_source = T_local_body();
+  prior.information = P_.topLeftCorner<6, 6>().inverse();
+  const RegistrationResult result = register_point_to_plane(
+      strided(sweep.points_body, config_.max_registration_points), map_, prior.T_target_source,
+      prior, registration_config(), T_body_lidar_.translation());
+  update(result);
+  if (!config_.use_imu) {
+    const Eigen::Isometry3d& T_prev = sweep.T_local_body_before;
+    const double dt = std::max((sweep.end_utime - sweep.start_utime) * 1e-6, 1e-3);
+    twist_.head<3>() = T_prev.linear().transpose() * (x_.p - T_prev.translation()) / dt;
+    twist_.tail<3>() = so3::log(T_prev.linear().transpose() * x_.R) / dt;
+    x_.v = x_.R * twist_.head<3>();
   }
+  est.fitness_m = result.rms_residual_m;
+  est.correspondences = result.correspondences;
+  est.degenerate = result.degenerate;
+  est.translation_eigen_ratio = result.translation_eigen_ratio;
+  est.rotation_eigen_ratio = result.rotation_eigen_ratio;
+  counters_.degenerate_scans += result.degenerate ? 1 : 0;
+}
 
+void LidarInertialOdometry::update_map(const Sweep& sweep) {
+  const Eigen::Isometry3d moved = last_insert_T_local_body_.inverse() * T_local_body();
+  if (!have_map_insert_ || moved.translation().norm() >= config_.map_insert_translation_m ||
+      se3::rotation_angle(moved) >= config_.map_insert_rotation_rad) {
+    const Eigen::Isometry3f T = T_local_body().cast<float>();
+    std::vector<Eigen::Vector3f> world;
+    world.reserve(sweep.points_body.size());
+    for (const Eigen::Vector3f& p : sweep.points_body) {
+      world.push_back(T * p);
+    }
+    map_.insert(world);
+    have_map_insert_ = true;
+    last_insert_T_local_body_ = T_local_body();
+  }
+  if (++sweeps_since_cleanup_ >= 10) {
+    map_.remove_far(x_.p);
+    sweeps_since_cleanup_ = 0;
+  }
+}
+
+std::optional<Keyframe> LidarInertialOdometry::make_keyframe(const Sweep& sweep) {
+  const Eigen::Isometry3d delta = last_keyframe_T_local_body_.inverse() * T_local_body();
+  if (have_keyframe_ && delta.translation().norm() < config_.keyframe_translation_m &&
+      se3::rotation_angle(delta) < config_.keyframe_rotation_rad) {
+    return std::nullopt;
+  }
+  const std::vector<Eigen::Vector3f> full =
+      deskew(sweep.valid, sweep.start_utime, sweep.end_utime, sweep.motion, T_body_lidar_);
+  PointCloud cloud;
+  cloud.reserve(full.size());
+  for (size_t i = 0; i < full.size(); ++i) {
+    cloud.push_back(full[i], sweep.valid[i].intensity);
+  }
+  Keyframe kf;
+  kf.id = next_keyframe_id_++;
+  kf.cloud_body = voxel_downsample(cloud, static_cast<float>(config_.keyframe_voxel_m));
+  have_keyframe_ = true;
+  last_keyframe_T_local_body_ = T_local_body();
+  ++counters_.keyframes;
+  return kf;
+}
+
+void LidarInertialOdometry::finish_estimate(OdometryEstimate& est) {
+  const int64_t end_utime = est.utime_us;
   history_.push_back({end_utime, T_local_body()});
   while (!history_.empty() && history_.front().utime_us < end_utime - to_us(config_.history_s)) {
     history_.pop_front();
@@ -434,7 +445,7 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
   est.angular_velocity_body = last_omega_;
   est.gyro_bias = x_.bg;
   est.accel_bias = x_.ba;
-  est.covariance = pose_covariance_right();
+  est.covariance = P_.topLeftCorner<6, 6>();
   if (est.keyframe) {
     Keyframe& kf = *est.keyframe;
     kf.utime_us = end_utime;
@@ -447,8 +458,6 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
     kf.degenerate = est.degenerate;
   }
   ++counters_.scans_processed;
-  est.timings.total_ms = ms_since(t_start);
-  return est;
 }
 
 std::optional<Eigen::Isometry3d> LidarInertialOdometry::pose_in_history(int64_t utime_us) const {

@@ -139,7 +139,6 @@ class LidarInertialOdometry {
   // Processes every waiting sweep, whether or not the IMU covers it (end of data).
   std::vector<OdometryEstimate> flush();
 
-  bool initialized() const { return initialized_; }
   const OdometryCounters& counters() const;
   const NavState& state() const { return x_; }
   const StateMatrix& covariance() const { return P_; }
@@ -151,11 +150,30 @@ class LidarInertialOdometry {
     Eigen::Isometry3d T_local_body;
   };
 
+  // One sweep on its way through process_scan().
+  struct Sweep {
+    int64_t start_utime = 0;
+    int64_t end_utime = 0;
+    std::vector<LidarPoint> valid;             // within the range limits
+    std::vector<LidarPoint> sparse;            // one per registration voxel
+    MotionProfile motion;                      // the body's motion over the sweep
+    std::vector<Eigen::Vector3f> points_body;  // sparse, deskewed to the sweep's end
+    Eigen::Isometry3d T_local_body_before = Eigen::Isometry3d::Identity();
+  };
+
   std::vector<OdometryEstimate> run(bool force);
   // Sets the initial state from the IMU before `start_utime`; false if there is too
   // little IMU yet.
   bool initialize(int64_t start_utime);
+  // The pipeline of one sweep (docs/odometry.md), each step timed in est.timings.
   OdometryEstimate process_scan(const LidarScan& scan, int64_t start_utime, int64_t end_utime);
+  Sweep preprocess(const LidarScan& scan, int64_t start_utime, int64_t end_utime) const;
+  void predict_and_deskew(Sweep& sweep, OdometryEstimate& est);
+  void register_sweep(const Sweep& sweep, OdometryEstimate& est);
+  void update_map(const Sweep& sweep);
+  std::optional<Keyframe> make_keyframe(const Sweep& sweep);
+  void finish_estimate(OdometryEstimate& est);
+
   void predict(int64_t end_utime, MotionProfile& motion);
   void update(const RegistrationResult& result);
   // True if the IMU samples of (t0, t1] show a standing vehicle.
@@ -166,7 +184,6 @@ class LidarInertialOdometry {
   void blend_correction();
   std::optional<Eigen::Isometry3d> pose_in_history(int64_t utime_us) const;
   Eigen::Isometry3d T_local_body() const;
-  Matrix6d pose_covariance_right() const;
 
   OdometryConfig config_;
   Eigen::Isometry3d T_body_lidar_;

@@ -1,5 +1,6 @@
 #include "odometry/navigation_state.hpp"
 
+#include "math/se3.hpp"
 #include "math/so3.hpp"
 
 namespace liloc {
@@ -21,14 +22,29 @@ Eigen::Matrix<double, 3, 2> gravity_jacobian(const Eigen::Vector3d& g) {
 
 NavState boxplus(const NavState& x, const StateVector& dx) {
   NavState y;
-  y.R = so3::normalize(x.R * so3::exp(dx.segment<3>(kRot)));
-  y.p = x.p + dx.segment<3>(kPos);
+  const Eigen::Isometry3d T = se3::plus(se3::make(x.R, x.p), dx.head<6>());
+  y.R = T.linear();
+  y.p = T.translation();
   y.v = x.v + dx.segment<3>(kVel);
   y.bg = x.bg + dx.segment<3>(kBg);
   y.ba = x.ba + dx.segment<3>(kBa);
   const Eigen::Vector3d tangent = gravity_tangent_basis(x.g) * dx.segment<2>(kGrav);
   y.g = x.g.norm() * (so3::exp(tangent) * x.g.normalized());
   return y;
+}
+
+StateVector boxminus(const NavState& y, const NavState& x) {
+  StateVector dx;
+  dx.head<6>() = se3::minus(se3::make(y.R, y.p), se3::make(x.R, x.p));
+  dx.segment<3>(kVel) = y.v - x.v;
+  dx.segment<3>(kBg) = y.bg - x.bg;
+  dx.segment<3>(kBa) = y.ba - x.ba;
+  // The tangent of S2 at x.g that rotates it onto y.g.
+  const Eigen::Vector3d u = x.g.normalized();
+  const Eigen::Vector3d axis =
+      so3::log(Eigen::Quaterniond::FromTwoVectors(u, y.g.normalized()).toRotationMatrix());
+  dx.segment<2>(kGrav) = gravity_tangent_basis(x.g).transpose() * axis;
+  return dx;
 }
 
 }  // namespace liloc

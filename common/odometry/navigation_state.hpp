@@ -1,8 +1,11 @@
 #pragma once
 // The odometry's state and its error-state parametrization (an iterated error-state
 // Kalman filter, as in FAST-LIO2, with gravity on S2):
-//   x = (R, p, v, bg, ba, g),  R = R_hat Exp(dtheta) (body frame),  p, v additive (local
-//   map frame), biases additive, g = |g| Exp(B(u) dg) u with dg in the 2D tangent of S2.
+//   x = (T, v, bg, ba, g) with the pose T = (R, p) perturbed on the right,
+//   T = T_hat Exp(rho, phi) (liloc's tangent convention, math/se3.hpp: translation in the
+//   body frame, then rotation), v additive (local map frame), biases additive,
+//   g = |g| Exp(B(u) dg) u with dg in the 2D tangent of S2.
+// The pose block is thus what registration, pose priors and covariances on the wire use.
 // Estimating the gravity direction lets a turn-on accelerometer bias be told apart from
 // the initial tilt instead of being frozen into the map.
 
@@ -11,8 +14,8 @@
 namespace liloc {
 
 constexpr int kStateDim = 17;
-constexpr int kRot = 0;    // dtheta, body frame
-constexpr int kPos = 3;    // dp, local map frame
+constexpr int kPos = 0;    // rho, body frame
+constexpr int kRot = 3;    // phi, body frame
 constexpr int kVel = 6;    // dv, local map frame
 constexpr int kBg = 9;     // gyro bias
 constexpr int kBa = 12;    // accelerometer bias
@@ -36,5 +39,7 @@ Eigen::Matrix<double, 3, 2> gravity_tangent_basis(const Eigen::Vector3d& g);
 Eigen::Matrix<double, 3, 2> gravity_jacobian(const Eigen::Vector3d& g);
 
 NavState boxplus(const NavState& x, const StateVector& dx);
+// The inverse of boxplus: boxplus(x, boxminus(y, x)) = y.
+StateVector boxminus(const NavState& y, const NavState& x);
 
 }  // namespace liloc

@@ -4,12 +4,10 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "math/so3.hpp"
-
 namespace liloc {
 namespace {
 
-constexpr int kNeighbors = 5;  // paper Eq. 6
+constexpr int kNeighbors = 5;  // the plane through 5 neighbours, paper Eq. 6
 // The neighbours must spread in their second direction by more than range noise does
 // (m, 1 sigma).
 constexpr double kMinSpread = 0.05;
@@ -32,7 +30,7 @@ struct Accumulator {
 };
 
 struct Match {
-  Eigen::Vector3d point_body;
+  Eigen::Vector3d point_source;
   Eigen::Vector3d normal;
   double offset;
   double weight;  // planarity ("roughness") weight of Eq. 6
@@ -47,7 +45,7 @@ double cauchy_cost(double r, double scale) {
 // Matches every source point, at the current pose, to the plane of its neighbours.
 std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const VoxelHashMap& map,
                              const Eigen::Isometry3d& T, const RegistrationConfig& config,
-                             const Eigen::Vector3d& sensor_origin_body) {
+                             const Eigen::Vector3d& sensor_origin_source) {
   std::vector<Match> matches(source.size());
   std::vector<char> valid(source.size(), 0);
   const Eigen::Isometry3f Tf = T.cast<float>();
@@ -63,8 +61,8 @@ std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const V
     if (!plane) {
       continue;
     }
-    const Eigen::Vector3d ray_body = (source[i].cast<double>() - sensor_origin_body).normalized();
-    if (std::abs(plane->normal.dot(T.linear() * ray_body)) < config.min_incidence_cos) {
+    const Eigen::Vector3d ray = (source[i].cast<double>() - sensor_origin_source).normalized();
+    if (std::abs(plane->normal.dot(T.linear() * ray)) < config.min_incidence_cos) {
       continue;
     }
     matches[i] = {source[i].cast<double>(), plane->normal, plane->offset,
@@ -82,7 +80,7 @@ std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const V
 }
 
 // Residuals, Jacobians and robust weights at pose T; the Hessian and gradient of
-// 0.5 * sum w rho(r) / sigma^2.
+// 0.5 * sum w rho(r) / sigma^2 over the right perturbation T Exp(xi).
 Accumulator linearize(const std::vector<Match>& matches, const Eigen::Isometry3d& T,
                       const RegistrationConfig& config) {
   const Eigen::Matrix3d& R = T.linear();
@@ -95,11 +93,11 @@ Accumulator linearize(const std::vector<Match>& matches, const Eigen::Isometry3d
 #pragma omp for schedule(static) nowait
     for (size_t i = 0; i < matches.size(); ++i) {
       const Match& m = matches[i];
-      const double r = m.normal.dot(R * m.point_body + t) + m.offset;
-      const Eigen::Vector3d n_body = R.transpose() * m.normal;
+      const double r = m.normal.dot(R * m.point_source + t) + m.offset;
+      const Eigen::Vector3d n_source = R.transpose() * m.normal;
       Vector6d J;
-      J.head<3>() = m.normal;                    // d r / d dp
-      J.tail<3>() = m.point_body.cross(n_body);  // d r / d dtheta = -n^T R [p]x
+      J.head<3>() = n_source;                        // d r / d rho = n^T R
+      J.tail<3>() = m.point_source.cross(n_source);  // d r / d phi = -n^T R [p]x
       const double w = m.weight * info * cauchy_weight(r, config.cauchy_scale_m);
       local.H.noalias() += w * J * J.transpose();
       local.g.noalias() += w * r * J;
@@ -115,7 +113,7 @@ Accumulator linearize(const std::vector<Match>& matches, const Eigen::Isometry3d
 
 // Prior residual at T: e = T [-] T_prior, with its (approximately identity) Jacobian.
 void add_prior(const PosePrior& prior, const Eigen::Isometry3d& T, Accumulator& acc) {
-  const Vector6d e = pose_minus(T, prior.T_map_body);
+  const Vector6d e = se3::minus(T, prior.T_target_source);
   acc.H += prior.information;
   acc.g += prior.information * e;
   acc.cost += 0.5 * e.dot(prior.information * e);
@@ -138,18 +136,6 @@ void RegistrationConfig::validate() const {
   if (!(min_planarity >= 0 && min_planarity <= 1)) {
     throw std::invalid_argument("min_planarity must lie in [0, 1]");
   }
-}
-
-Eigen::Isometry3d pose_plus(const Eigen::Isometry3d& T, const Vector6d& d) {
-  return se3::make(so3::normalize(T.linear() * so3::exp(d.tail<3>())),
-                   T.translation() + d.head<3>());
-}
-
-Vector6d pose_minus(const Eigen::Isometry3d& T, const Eigen::Isometry3d& T_ref) {
-  Vector6d d;
-  d.head<3>() = T.translation() - T_ref.translation();
-  d.tail<3>() = so3::log(T_ref.linear().transpose() * T.linear());
-  return d;
 }
 
 std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double max_thickness_m,
@@ -189,22 +175,26 @@ std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double 
   return Plane{normal, -normal.dot(mean), thickness};
 }
 
-RegistrationResult register_point_to_plane(const std::vector<Eigen::Vector3f>& source_body,
-                                           const VoxelHashMap& map,
-                                           const Eigen::Isometry3d& T_map_body_guess,
+RegistrationResult register_point_to_plane(const std::vector<Eigen::Vector3f>& source,
+                                           const VoxelHashMap& target,
+                                           const Eigen::Isometry3d& T_target_source_guess,
                                            const std::optional<PosePrior>& prior,
                                            const RegistrationConfig& config,
-                                           const Eigen::Vector3d& sensor_origin_body) {
+                                           const Eigen::Vector3d& sensor_origin_source) {
   RegistrationResult result;
-  Eigen::Isometry3d T = T_map_body_guess;
+  Eigen::Isometry3d T = T_target_source_guess;
   double lambda = 1e-6;  // Levenberg-Marquardt damping, relative to the diagonal
   std::vector<Match> matches;
+  const auto small = [&](const Vector6d& step) {
+    return step.head<3>().norm() < config.convergence_translation_m &&
+           step.tail<3>().norm() < config.convergence_rotation_rad;
+  };
   for (int iteration = 0; iteration < config.max_iterations; ++iteration) {
     result.iterations = iteration + 1;
     // Re-associate while the pose still moves much; later steps refine with the same
     // planes, which costs a fraction of a search.
     if (iteration < config.max_associations) {
-      matches = associate(source_body, map, T, config, sensor_origin_body);
+      matches = associate(source, target, T, config, sensor_origin_source);
     }
     Accumulator acc = linearize(matches, T, config);
     if (prior) {
@@ -220,7 +210,7 @@ RegistrationResult register_point_to_plane(const std::vector<Eigen::Vector3f>& s
       Matrix6d A = acc.H;
       A.diagonal() += lambda * acc.H.diagonal().cwiseMax(1e-9);
       step = -A.ldlt().solve(acc.g);
-      const Eigen::Isometry3d candidate = pose_plus(T, step);
+      const Eigen::Isometry3d candidate = se3::plus(T, step);
       Accumulator next = linearize(matches, candidate, config);
       if (prior) {
         add_prior(*prior, candidate, next);
@@ -233,8 +223,14 @@ RegistrationResult register_point_to_plane(const std::vector<Eigen::Vector3f>& s
         lambda *= 10.0;
       }
     }
-    if (!accepted || (step.head<3>().norm() < config.convergence_translation_m &&
-                      step.tail<3>().norm() < config.convergence_rotation_rad)) {
+    if (!accepted) {
+      // Stalled: converged only if even the undamped step is below the thresholds (the
+      // cost cannot fall further at machine precision), not when the steps are refused.
+      const Vector6d undamped = -acc.H.ldlt().solve(acc.g);
+      result.converged = undamped.allFinite() && small(undamped);
+      break;
+    }
+    if (small(step)) {
       result.converged = true;
       break;
     }
@@ -242,8 +238,8 @@ RegistrationResult register_point_to_plane(const std::vector<Eigen::Vector3f>& s
   // The information at the solution, from the last correspondences (a final search
   // would cost as much as an iteration and changes nothing once converged).
   const Accumulator final_acc = linearize(matches, T, config);
-  result.T_map_body = T;
-  result.lidar_information = final_acc.H;
+  result.T_target_source = T;
+  result.information = final_acc.H;
   result.correspondences = final_acc.count;
   result.rms_residual_m =
       final_acc.count > 0 ? std::sqrt(final_acc.squared_residuals / final_acc.count) : 0.0;

@@ -5,8 +5,9 @@
 // odometry's Kalman update and the constant-velocity model enter) is found by
 // Levenberg-Marquardt on SE(3), re-associating between iterations.
 //
-// Pose perturbation used throughout: T = T_hat [+] d with d = (dp, dtheta):
-// translation t = t_hat + dp (map frame), rotation R = R_hat Exp(dtheta) (body frame).
+// Frames: the source cloud (a sweep, in its body frame) is registered to the target (a
+// map); the result is T_target_source. Information matrices and priors are over the right
+// perturbation of T_target_source, liloc's one tangent convention (math/se3.hpp).
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -58,23 +59,27 @@ struct RegistrationConfig {
   void validate() const;
 };
 
-// A Gaussian prior on the pose: mean and information (6x6 over (dp, dtheta) at the mean).
+// A Gaussian prior on the pose: mean and information (6x6, right perturbation at the mean).
 struct PosePrior {
-  Eigen::Isometry3d T_map_body = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
   Matrix6d information = Matrix6d::Zero();
 };
 
 struct RegistrationResult {
-  Eigen::Isometry3d T_map_body = Eigen::Isometry3d::Identity();
-  // Information of the LiDAR residuals alone at the solution, over (dp, dtheta).
-  Matrix6d lidar_information = Matrix6d::Zero();
+  Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
+  // Information of the point-to-plane residuals alone (no prior) at the solution, over the
+  // right perturbation of T_target_source.
+  Matrix6d information = Matrix6d::Zero();
   int iterations = 0;
   int correspondences = 0;      // points matched to a valid plane in the last iteration
   double rms_residual_m = 0.0;  // fitness: RMS point-to-plane distance of the matches
+  // The last step was below the convergence thresholds. False when the iterations ran out
+  // or Levenberg-Marquardt stalled (no damped step lowered the cost while the undamped
+  // one was still large): the pose is then the last one that lowered the cost.
   bool converged = false;
   bool degenerate = false;
   // Smallest / largest eigenvalue of the translation and rotation blocks of
-  // lidar_information (the degeneracy measure).
+  // `information` (the degeneracy measure).
   double translation_eigen_ratio = 0.0;
   double rotation_eigen_ratio = 0.0;
 };
@@ -88,16 +93,12 @@ struct Plane {
 std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double max_thickness_m,
                                double min_planarity);
 
-// Registers source points (body frame; measured from sensor_origin_body) to the map,
-// starting at T_map_body_guess.
+// Registers source points (source frame; measured from sensor_origin_source) to the
+// target map, starting at T_target_source_guess.
 RegistrationResult register_point_to_plane(
-    const std::vector<Eigen::Vector3f>& source_body, const VoxelHashMap& map,
-    const Eigen::Isometry3d& T_map_body_guess, const std::optional<PosePrior>& prior,
+    const std::vector<Eigen::Vector3f>& source, const VoxelHashMap& target,
+    const Eigen::Isometry3d& T_target_source_guess, const std::optional<PosePrior>& prior,
     const RegistrationConfig& config,
-    const Eigen::Vector3d& sensor_origin_body = Eigen::Vector3d::Zero());
-
-// T [+] d and its inverse, in the perturbation convention above.
-Eigen::Isometry3d pose_plus(const Eigen::Isometry3d& T, const Vector6d& d);
-Vector6d pose_minus(const Eigen::Isometry3d& T, const Eigen::Isometry3d& T_ref);
+    const Eigen::Vector3d& sensor_origin_source = Eigen::Vector3d::Zero());
 
 }  // namespace liloc

@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "map/map_validation.hpp"
 #include "storage/file_io.hpp"
 #include "storage/map_error.hpp"
 #include "storage/map_layout.hpp"
@@ -112,24 +113,6 @@ class ManifestReader {
 };
 
 }  // namespace
-
-bool is_valid_map_id(std::string_view map_id) {
-  if (map_id.empty()) {
-    return false;
-  }
-  const auto alnum = [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9');
-  };
-  if (!alnum(map_id.front())) {
-    return false;
-  }
-  for (const char c : map_id) {
-    if (!alnum(c) && c != '.' && c != '_' && c != '-') {
-      return false;
-    }
-  }
-  return true;
-}
 
 std::string encode_manifest(const MapManifest& manifest) {
   std::string out;

@@ -42,10 +42,6 @@ struct MapManifest {
   std::vector<StoredFile> keyframe_files;  // cloud and descriptor of every keyframe
 };
 
-// Map ids go into YAML unquoted: letters, digits, '.', '_', '-', starting with a letter
-// or digit.
-bool is_valid_map_id(std::string_view map_id);
-
 std::string encode_manifest(const MapManifest& manifest);
 
 // Checks the trailing checksum, the format name and version, the frame, and that every

@@ -1,6 +1,7 @@
 #include "storage/map_store.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <ctime>
 #include <filesystem>
@@ -9,6 +10,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "map/map_validation.hpp"
 #include "storage/file_io.hpp"
 #include "storage/map_error.hpp"
 #include "storage/map_layout.hpp"
@@ -34,6 +36,11 @@ struct MapStore::VersionIndex {
 namespace {
 
 constexpr size_t kMaxErrorsListed = 20;
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
 
 std::string join(const std::string& directory, const std::string& name) {
   return directory + "/" + name;
@@ -65,15 +72,6 @@ std::string read_checked(const std::string& path, const StoredFile& record) {
 
 StoredFile record_of(const std::string& relative_path, std::string_view bytes) {
   return {relative_path, bytes.size(), crc32_of(bytes)};
-}
-
-// Up to 40 characters of text that may be binary garbage, printable.
-std::string printable_excerpt(std::string_view text) {
-  std::string out;
-  for (const char c : text.substr(0, 40)) {
-    out += (c >= 0x20 && c < 0x7f) ? c : '?';
-  }
-  return text.size() > 40 ? out + "..." : out;
 }
 
 std::string utc_now_iso8601() {
@@ -112,81 +110,19 @@ std::string describe(const MapCounts& c) {
          " loop edges, " + std::to_string(c.sessions) + " sessions";
 }
 
-bool is_rigid(const Eigen::Isometry3d& T) {
-  const Eigen::Matrix3d R = T.linear();
-  return T.matrix().allFinite() &&
-         (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-6 &&
-         R.determinant() > 0.0;
-}
-
-// The rules both the data given to save() and the files read by load() must follow.
-// fail(file, what) must throw; `file` is the version file the offending entry lives in.
-template <class Fail>
-void check_map(const MapData& data, const Fail& fail) {
-  std::unordered_set<int64_t> keyframe_ids;
-  for (size_t i = 0; i < data.keyframes.size(); ++i) {
-    const MapKeyframe& kf = data.keyframes[i];
-    const std::string name = "keyframe " + std::to_string(kf.id);
-    if (kf.id < 0) {
-      fail(kKeyframesCsvFile, name + ": ids must not be negative");
-    }
-    if (i > 0 && kf.id <= data.keyframes[i - 1].id) {
-      fail(kKeyframesCsvFile, name + " after keyframe " + std::to_string(data.keyframes[i - 1].id) +
-                                  ": keyframes must be in increasing id order");
-    }
-    if (!is_valid_session_name(kf.session)) {
-      fail(kKeyframesCsvFile, name + ": session '" + printable_excerpt(kf.session) +
-                                  "' has a ',', '\"' or control character");
-    }
-    if (!std::isfinite(kf.fitness_m)) {
-      fail(kKeyframesCsvFile, name + ": fitness_m is not finite");
-    }
-    if (!is_rigid(kf.T_map_body)) {
-      fail(kPosesTumFile, name + ": T_map_body is not a finite rigid transform");
-    }
-    keyframe_ids.insert(kf.id);
+// The file of a map version that holds a part of the map.
+const char* file_of(MapPart part) {
+  switch (part) {
+    case MapPart::kKeyframes:
+      return kKeyframesCsvFile;
+    case MapPart::kPoses:
+      return kPosesTumFile;
+    case MapPart::kSubmaps:
+      return kSubmapsCsvFile;
+    case MapPart::kPoseGraph:
+      return kPoseGraphFile;
   }
-  std::unordered_set<int64_t> submap_ids;
-  for (size_t i = 0; i < data.submaps.size(); ++i) {
-    const Submap& submap = data.submaps[i];
-    const std::string name = "submap " + std::to_string(submap.id);
-    if (i > 0 && submap.id <= data.submaps[i - 1].id) {
-      fail(kSubmapsCsvFile, name + " after submap " + std::to_string(data.submaps[i - 1].id) +
-                                ": submaps must be in increasing id order");
-    }
-    if (!is_valid_session_name(submap.source_session)) {
-      fail(kSubmapsCsvFile, name + ": session '" + printable_excerpt(submap.source_session) +
-                                "' has a ',', '\"' or control character");
-    }
-    const BoundsXY& b = submap.bounds;
-    if (!submap.centroid.allFinite() || !std::isfinite(b.min_x) || !std::isfinite(b.max_x) ||
-        !std::isfinite(b.min_y) || !std::isfinite(b.max_y)) {
-      fail(kSubmapsCsvFile, name + ": centroid or bounds not finite");
-    }
-    for (const int64_t id : submap.keyframe_ids) {
-      if (keyframe_ids.count(id) == 0) {
-        fail(kSubmapsCsvFile,
-             name + " lists keyframe " + std::to_string(id) + ", which the map does not have");
-      }
-    }
-    submap_ids.insert(submap.id);
-  }
-  for (const MapKeyframe& kf : data.keyframes) {
-    if (kf.submap_id != -1 && submap_ids.count(kf.submap_id) == 0) {
-      fail(kKeyframesCsvFile, "keyframe " + std::to_string(kf.id) + " is in submap " +
-                                  std::to_string(kf.submap_id) +
-                                  ", which the map does not have (-1: none)");
-    }
-  }
-  for (const PoseGraphEdge& edge : data.edges) {
-    const std::string name = "edge " + std::to_string(edge.from) + " -> " + std::to_string(edge.to);
-    if (keyframe_ids.count(edge.from) == 0 || keyframe_ids.count(edge.to) == 0) {
-      fail(kPoseGraphFile, name + " joins a keyframe the map does not have");
-    }
-    if (!is_rigid(edge.T_from_to) || !edge.information.allFinite()) {
-      fail(kPoseGraphFile, name + ": T_from_to or information not finite (or not rigid)");
-    }
-  }
+  return kKeyframesCsvFile;
 }
 
 }  // namespace
@@ -302,9 +238,9 @@ MapData MapStore::load() const {
     throw MapError::in_file(manifest_path, "lists " + std::to_string(contents.size()) +
                                                " version files; this format has 4");
   }
-  check_map(data, [&](const char* file, const std::string& what) {
-    throw MapError::in_file(path_of(file), what);
-  });
+  if (const std::optional<MapProblem> problem = find_map_problem(data)) {
+    throw MapError::in_file(path_of(file_of(problem->part)), problem->what);
+  }
   const MapCounts counts = count_of(data);
   if (!(counts == manifest.counts)) {
     throw MapError::in_file(manifest_path, "counts (" + describe(manifest.counts) +
@@ -414,8 +350,59 @@ void MapStore::set_save_step_observer(std::function<void(SaveStep)> observer) {
   save_step_observer_ = std::move(observer);
 }
 
-void MapStore::save(MapData& data, const std::map<int64_t, PointCloud>& new_clouds,
-                    const std::map<int64_t, std::vector<uint8_t>>& new_descriptors) {
+// A keyframe file a save writes: the entry in the new manifest and what goes into it.
+struct MapStore::NewKeyframeFile {
+  size_t record = 0;  // index in SavePlan::keyframe_files
+  const PointCloud* cloud = nullptr;
+  const std::vector<uint8_t>* descriptor = nullptr;  // if not a cloud
+  std::string bytes() const {
+    return cloud != nullptr ? encode_pcd(*cloud)
+                            : std::string(descriptor->begin(), descriptor->end());
+  }
+};
+
+struct MapStore::SavePlan {
+  std::vector<StoredFile> keyframe_files;  // of the new version, in keyframe order
+  std::vector<NewKeyframeFile> new_files;
+};
+
+SaveReport MapStore::save(MapData& data, const std::map<int64_t, PointCloud>& new_clouds,
+                          const std::map<int64_t, std::vector<uint8_t>>& new_descriptors) {
+  const Clock::time_point start = Clock::now();
+  SaveReport report;
+  check_saveable(data, new_clouds, new_descriptors);
+  create_directory_synced(directory_);
+  create_directory_synced(join(directory_, kVersionsDir));
+  create_directory_synced(join(directory_, kKeyframesDir));
+  const FileLock lock(join(directory_, kLockFile));
+  const std::shared_ptr<const VersionIndex> current = current_version_for_save(data);
+  SavePlan plan = plan_keyframe_files(data, current.get(), new_clouds, new_descriptors);
+  report.check_ms = ms_since(start);
+
+  Clock::time_point step = Clock::now();
+  report.keyframe_files_written = write_keyframe_files(plan, current.get());
+  report.keyframe_files_ms = ms_since(step);
+  step = Clock::now();
+  std::shared_ptr<VersionIndex> written = write_version(data, std::move(plan.keyframe_files));
+  report.version_ms = ms_since(step);
+  step = Clock::now();
+  commit(written->name);
+  report.commit_ms = ms_since(step);
+
+  data.version = written->manifest.version;
+  {
+    const std::lock_guard<std::mutex> index_lock(index_mutex_);
+    index_ = std::move(written);
+  }
+  notify(SaveStep::kCommitted);
+  report.version = data.version;
+  report.total_ms = ms_since(start);
+  return report;
+}
+
+void MapStore::check_saveable(
+    const MapData& data, const std::map<int64_t, PointCloud>& new_clouds,
+    const std::map<int64_t, std::vector<uint8_t>>& new_descriptors) const {
   const auto invalid = [&](const std::string& what) {
     throw std::invalid_argument("cannot save map '" + data.map_id + "' to " + directory_ + ": " +
                                 what);
@@ -426,7 +413,9 @@ void MapStore::save(MapData& data, const std::map<int64_t, PointCloud>& new_clou
   if (data.version < 0) {
     invalid("negative version");
   }
-  check_map(data, [&](const char*, const std::string& what) { invalid(what); });
+  if (const std::optional<MapProblem> problem = find_map_problem(data)) {
+    invalid(problem->what);
+  }
   std::unordered_set<int64_t> keyframe_ids;
   for (const MapKeyframe& kf : data.keyframes) {
     keyframe_ids.insert(kf.id);
@@ -446,60 +435,57 @@ void MapStore::save(MapData& data, const std::map<int64_t, PointCloud>& new_clou
               ", which the map does not have");
     }
   }
+}
 
-  const std::string versions_dir = join(directory_, kVersionsDir);
-  const std::string keyframes_dir = join(directory_, kKeyframesDir);
-  create_directory_synced(directory_);
-  create_directory_synced(versions_dir);
-  create_directory_synced(keyframes_dir);
-  const FileLock lock(join(directory_, kLockFile));
-
+std::shared_ptr<const MapStore::VersionIndex> MapStore::current_version_for_save(
+    const MapData& data) const {
   // The version on disk, read now (under the lock), not the one this store cached.
-  std::shared_ptr<const VersionIndex> current;
-  if (exists()) {
-    current = read_version_index(read_current_version_name());
-    if (current->manifest.map_id != data.map_id) {
-      throw MapError::in_file(
-          directory_, "holds map '" + current->manifest.map_id + "', not '" + data.map_id + "'");
-    }
-    if (current->manifest.version != data.version) {
-      throw MapError::in_file(directory_,
-                              "is at version " + std::to_string(current->manifest.version) +
-                                  ", the map to save is version " + std::to_string(data.version) +
-                                  " (load the current version, change it, save)");
-    }
+  if (!exists()) {
+    return nullptr;
   }
+  std::shared_ptr<const VersionIndex> current = read_version_index(read_current_version_name());
+  if (current->manifest.map_id != data.map_id) {
+    throw MapError::in_file(
+        directory_, "holds map '" + current->manifest.map_id + "', not '" + data.map_id + "'");
+  }
+  if (current->manifest.version != data.version) {
+    throw MapError::in_file(directory_,
+                            "is at version " + std::to_string(current->manifest.version) +
+                                ", the map to save is version " + std::to_string(data.version) +
+                                " (load the current version, change it, save)");
+  }
+  return current;
+}
 
+MapStore::SavePlan MapStore::plan_keyframe_files(
+    const MapData& data, const VersionIndex* current,
+    const std::map<int64_t, PointCloud>& new_clouds,
+    const std::map<int64_t, std::vector<uint8_t>>& new_descriptors) const {
   // Each keyframe file is either listed by the current version or new; all of them are
   // checked before anything is written.
-  struct NewFile {
-    size_t record;            // index in keyframe_files
-    const PointCloud* cloud;  // the new cloud, or else
-    const std::vector<uint8_t>* descriptor;
-    std::string bytes() const {
-      return cloud != nullptr ? encode_pcd(*cloud)
-                              : std::string(descriptor->begin(), descriptor->end());
-    }
-  };
-  std::vector<StoredFile> keyframe_files;
-  keyframe_files.reserve(2 * data.keyframes.size());
-  std::vector<NewFile> new_files;
+  SavePlan plan;
+  plan.keyframe_files.reserve(2 * data.keyframes.size());
   const auto plan_file = [&](int64_t id, const std::string& relative_path, const char* what,
-                             const NewFile& file) {
+                             const NewKeyframeFile& file) {
     const StoredFile* stored = current ? current->find_keyframe_file(relative_path) : nullptr;
     const bool given = file.cloud != nullptr || file.descriptor != nullptr;
+    const std::string prefix = "cannot save map '" + data.map_id + "' to " + directory_ + ": ";
     if (stored != nullptr && given) {
-      invalid("keyframe " + std::to_string(id) + " already has its " + what + " in version " +
-              current->name + "; keyframe files are written once (new data needs a new id)");
+      throw std::invalid_argument(prefix + "keyframe " + std::to_string(id) + " already has its " +
+                                  what + " in version " + current->name +
+                                  "; keyframe files are written once (new data needs a new id)");
     }
     if (stored == nullptr && !given) {
-      invalid("keyframe " + std::to_string(id) + " has no " + what + " on disk and none was given");
+      throw std::invalid_argument(prefix + "keyframe " + std::to_string(id) + " has no " + what +
+                                  " on disk and none was given");
     }
     if (stored != nullptr) {
-      keyframe_files.push_back(*stored);
+      plan.keyframe_files.push_back(*stored);
     } else {
-      new_files.push_back({keyframe_files.size(), file.cloud, file.descriptor});
-      keyframe_files.push_back({relative_path, 0, 0});  // size and CRC once encoded
+      NewKeyframeFile added = file;
+      added.record = plan.keyframe_files.size();
+      plan.new_files.push_back(added);
+      plan.keyframe_files.push_back({relative_path, 0, 0});  // size and CRC once encoded
     }
   };
   for (const MapKeyframe& kf : data.keyframes) {
@@ -510,11 +496,15 @@ void MapStore::save(MapData& data, const std::map<int64_t, PointCloud>& new_clou
     plan_file(kf.id, keyframe_descriptor_path(kf.id), "descriptor",
               {0, nullptr, descriptor == new_descriptors.end() ? nullptr : &descriptor->second});
   }
+  return plan;
+}
 
-  // 1. New keyframe files, each under a temporary name, fsynced and renamed, so that a
-  // file with a final name is always complete.
-  for (const NewFile& file : new_files) {
-    StoredFile& record = keyframe_files[file.record];
+int MapStore::write_keyframe_files(SavePlan& plan, const VersionIndex* current) const {
+  // Each under a temporary name, fsynced and renamed, so that a file with a final name is
+  // always complete.
+  int written = 0;
+  for (const NewKeyframeFile& file : plan.new_files) {
+    StoredFile& record = plan.keyframe_files[file.record];
     const std::string bytes = file.bytes();
     record.size_bytes = bytes.size();
     record.crc32 = crc32_of(bytes);
@@ -534,27 +524,33 @@ void MapStore::save(MapData& data, const std::map<int64_t, PointCloud>& new_clou
     const std::string temporary = path + kTempSuffix;
     write_file_synced(temporary, bytes);
     rename_file(temporary, path);
+    ++written;
     notify(SaveStep::kKeyframeFileWritten);
   }
-  if (!new_files.empty()) {
-    fsync_directory(keyframes_dir);
+  if (!plan.new_files.empty()) {
+    fsync_directory(join(directory_, kKeyframesDir));
     notify(SaveStep::kKeyframeFilesSynced);
   }
+  return written;
+}
 
-  // 2. The version directory, complete under a temporary name. A directory with the final
-  // name may exist if a save died after renaming it but before replacing CURRENT: it is not
+std::shared_ptr<MapStore::VersionIndex> MapStore::write_version(
+    const MapData& data, std::vector<StoredFile> keyframe_files) const {
+  // Complete under a temporary name, then renamed. A directory with the final name may
+  // exist if a save died after renaming it but before replacing CURRENT: it is not
   // current (CURRENT names data.version), so it is replaced.
-  const int64_t new_version = data.version + 1;
-  const std::string version_name = version_dir_name(new_version);
-  const std::string version_dir = join(versions_dir, version_name);
-  const std::string temporary_dir = version_dir + kTempSuffix;
+  const std::string versions_dir = join(directory_, kVersionsDir);
+  auto index = std::make_shared<VersionIndex>();
+  index->name = version_dir_name(data.version + 1);
+  index->directory = join(versions_dir, index->name);
+  const std::string temporary_dir = index->directory + kTempSuffix;
   remove_tree(temporary_dir);
-  remove_tree(version_dir);
+  remove_tree(index->directory);
   create_directory_synced(temporary_dir);
 
-  MapManifest manifest;
+  MapManifest& manifest = index->manifest;
   manifest.map_id = data.map_id;
-  manifest.version = new_version;
+  manifest.version = data.version + 1;
   manifest.created_utc = utc_now_iso8601();
   manifest.counts = count_of(data);
   manifest.keyframe_files = std::move(keyframe_files);
@@ -573,31 +569,23 @@ void MapStore::save(MapData& data, const std::map<int64_t, PointCloud>& new_clou
   notify(SaveStep::kVersionFileWritten);
   fsync_directory(temporary_dir);
   notify(SaveStep::kVersionDirectorySynced);
-  rename_file(temporary_dir, version_dir);
+  rename_file(temporary_dir, index->directory);
   fsync_directory(versions_dir);
   notify(SaveStep::kVersionRenamed);
+  for (const StoredFile& file : manifest.keyframe_files) {
+    index->keyframe_files.emplace(file.path, file);
+  }
+  return index;
+}
 
-  // 3. Commit: CURRENT is replaced by rename, which is atomic.
+void MapStore::commit(const std::string& version_name) const {
+  // CURRENT is replaced by rename, which is atomic.
   const std::string current_path = join(directory_, kCurrentFile);
   const std::string current_temporary = current_path + kTempSuffix;
   write_file_synced(current_temporary, version_name + "\n");
   notify(SaveStep::kCurrentTmpWritten);
   rename_file(current_temporary, current_path);
   fsync_directory(directory_);
-
-  auto index = std::make_shared<VersionIndex>();
-  index->name = version_name;
-  index->directory = version_dir;
-  for (const StoredFile& file : manifest.keyframe_files) {
-    index->keyframe_files.emplace(file.path, file);
-  }
-  index->manifest = std::move(manifest);
-  {
-    const std::lock_guard<std::mutex> index_lock(index_mutex_);
-    index_ = std::move(index);
-  }
-  data.version = new_version;
-  notify(SaveStep::kCommitted);
 }
 
 PruneResult MapStore::prune(int keep) {

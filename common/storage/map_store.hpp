@@ -41,6 +41,17 @@ enum class SaveStep {
 };
 const char* to_string(SaveStep step);
 
+// What a save did and how long each of its steps took.
+struct SaveReport {
+  int64_t version = 0;  // the new version
+  int keyframe_files_written = 0;
+  double check_ms = 0.0;           // the rules of map/map_validation.hpp, the plan
+  double keyframe_files_ms = 0.0;  // new keyframe files written and synced
+  double version_ms = 0.0;         // the version directory written, synced, renamed
+  double commit_ms = 0.0;          // CURRENT replaced
+  double total_ms = 0.0;
+};
+
 struct PruneResult {
   int versions_removed = 0;  // committed versions, uncommitted leftovers and temporaries
   int keyframe_files_removed = 0;
@@ -77,11 +88,11 @@ class MapStore {
   // data.map_id the map's id; on success data.version is the new version.
   // new_clouds / new_descriptors: the files of keyframes that are not yet on disk, by
   // keyframe id. Every keyframe of data needs both, on disk or given here.
-  // Throws std::invalid_argument for data that cannot be saved (unordered or unknown ids,
-  // missing or already stored keyframe files, non-finite values, invalid names) and
-  // MapError for I/O failures or a version conflict.
-  void save(MapData& data, const std::map<int64_t, PointCloud>& new_clouds,
-            const std::map<int64_t, std::vector<uint8_t>>& new_descriptors);
+  // Throws std::invalid_argument for data that cannot be saved (the rules of
+  // map/map_validation.hpp, missing or already stored keyframe files) and MapError for
+  // I/O failures or a version conflict.
+  SaveReport save(MapData& data, const std::map<int64_t, PointCloud>& new_clouds,
+                  const std::map<int64_t, std::vector<uint8_t>>& new_descriptors);
 
   // A keyframe file of the version this store last loaded or saved, checked against the
   // size and CRC-32 in its manifest. Throws MapError. Thread-safe.
@@ -99,6 +110,21 @@ class MapStore {
 
  private:
   struct VersionIndex;
+  struct NewKeyframeFile;
+  struct SavePlan;
+
+  // The steps of save(), in order.
+  void check_saveable(const MapData& data, const std::map<int64_t, PointCloud>& new_clouds,
+                      const std::map<int64_t, std::vector<uint8_t>>& new_descriptors) const;
+  std::shared_ptr<const VersionIndex> current_version_for_save(const MapData& data) const;
+  SavePlan plan_keyframe_files(
+      const MapData& data, const VersionIndex* current,
+      const std::map<int64_t, PointCloud>& new_clouds,
+      const std::map<int64_t, std::vector<uint8_t>>& new_descriptors) const;
+  int write_keyframe_files(SavePlan& plan, const VersionIndex* current) const;
+  std::shared_ptr<VersionIndex> write_version(const MapData& data,
+                                              std::vector<StoredFile> keyframe_files) const;
+  void commit(const std::string& version_name) const;
 
   std::shared_ptr<const VersionIndex> index() const;
   std::shared_ptr<const VersionIndex> read_version_index(const std::string& version_name) const;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "map/map_validation.hpp"
 #include "storage/map_error.hpp"
 #include "storage/map_layout.hpp"
 
@@ -160,7 +161,7 @@ class LineScanner {
   }
 
   std::string session(std::string_view field) const {
-    if (!is_valid_session_name(field)) {
+    if (!is_valid_name(field)) {
       fail("invalid session name '" + std::string(field) + "'");
     }
     return std::string(field);
@@ -208,15 +209,6 @@ class LineScanner {
 };
 
 }  // namespace
-
-bool is_valid_session_name(std::string_view session) {
-  for (const char c : session) {
-    if (c == ',' || c == '"' || static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
-      return false;
-    }
-  }
-  return true;
-}
 
 std::string encode_keyframes_csv(const std::vector<MapKeyframe>& keyframes) {
   std::string out;

@@ -39,7 +39,4 @@ std::string encode_pose_graph_g2o(const std::vector<MapKeyframe>& keyframes,
 std::vector<PoseGraphEdge> parse_pose_graph_g2o(std::string_view text, const std::string& path,
                                                 const std::vector<MapKeyframe>& keyframes);
 
-// Session names go into CSV fields unquoted: refuses ',', '"' and control characters.
-bool is_valid_session_name(std::string_view session);
-
 }  // namespace liloc::storage

@@ -49,12 +49,12 @@ Transport::Transport(const TransportConfig& config)
 
 Transport::~Transport() = default;
 
-int64_t Transport::next_seq(const std::string& channel) {
+bool Transport::publish_raw(const std::string& channel, const void* data, size_t size) {
   std::lock_guard<std::mutex> lock(publish_mutex_);
-  return next_seq_[channel]++;
+  return send_locked(channel, data, size);
 }
 
-bool Transport::publish_raw(const std::string& channel, const void* data, size_t size) {
+bool Transport::send_locked(const std::string& channel, const void* data, size_t size) {
   if (size > static_cast<size_t>(config_.max_message_bytes)) {
     ++publish_errors_;
     if (should_log(publish_errors_)) {
@@ -64,12 +64,7 @@ bool Transport::publish_raw(const std::string& channel, const void* data, size_t
     return false;
   }
   lcm::LCM& out = publish_lcm_ ? *publish_lcm_ : *lcm_;
-  int rc = 0;
-  {
-    std::lock_guard<std::mutex> lock(publish_mutex_);
-    rc = out.publish(channel, data, static_cast<unsigned int>(size));
-  }
-  if (rc != 0) {
+  if (out.publish(channel, data, static_cast<unsigned int>(size)) != 0) {
     ++publish_errors_;
     if (should_log(publish_errors_)) {
       spdlog::error("LCM failed to publish {} bytes on {}", size, channel);

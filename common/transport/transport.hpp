@@ -113,7 +113,8 @@ class Transport {
   void add_subscription(const std::string& channel, bool is_regex, Decoder decoder);
   void on_message(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Subscription* sub);
   void warn(Subscription& sub, const std::string& what, int64_t count);
-  int64_t next_seq(const std::string& channel);
+  // Sends with publish_mutex_ held; counts and logs a failure.
+  bool send_locked(const std::string& channel, const void* data, size_t size);
   // Updates drop / order counters for a decoded message's sender and sequence number.
   static void track_sequence(Subscription& sub, const std::string& sender, int64_t seq);
 
@@ -121,7 +122,7 @@ class Transport {
   std::unique_ptr<lcm::LCM> lcm_;
   std::unique_ptr<lcm::LCM> publish_lcm_;  // only with a separate publish_url
   std::vector<std::unique_ptr<Subscription>> subscriptions_;
-  std::mutex publish_mutex_;  // guards next_seq_ and the LCM send
+  std::mutex publish_mutex_;  // guards next_seq_ and the LCM send, taken together
   std::map<std::string, int64_t> next_seq_;
   std::atomic<int64_t> publish_errors_{0};
 };

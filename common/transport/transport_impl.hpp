@@ -19,14 +19,17 @@ struct Transport::Subscription {
 
 template <class Msg>
 bool Transport::publish(const std::string& channel, Msg& msg) {
-  msg.header.seq = next_seq(channel);
+  // The sequence number is taken and the message sent under one lock: with several
+  // publishing threads, message n + 1 never leaves before message n.
+  std::lock_guard<std::mutex> lock(publish_mutex_);
+  msg.header.seq = next_seq_[channel]++;
   const int size = msg.getEncodedSize();
   std::vector<uint8_t> buffer(static_cast<size_t>(size));
   if (msg.encode(buffer.data(), 0, size) != size) {
     ++publish_errors_;
     return false;
   }
-  return publish_raw(channel, buffer.data(), buffer.size());
+  return send_locked(channel, buffer.data(), buffer.size());
 }
 
 template <class Msg>

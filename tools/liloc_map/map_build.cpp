@@ -8,16 +8,16 @@
 #include <optional>
 
 #include "app/program.hpp"
-#include "bridge/lcm_conversions.hpp"
+#include "bridge/odometry_conversions.hpp"
 #include "config/yaml_config.hpp"
 #include "dataset/tum_trajectory.hpp"
 #include "eval/json_writer.hpp"
 #include "eval/trajectory_metrics.hpp"
-#include "map/central_session_builder.hpp"
 #include "map/keyframe_descriptors.hpp"
 #include "storage/map_store.hpp"
 #include "storage/submap_cloud_files.hpp"
 #include "system/system_config.hpp"
+#include "transport/log_file.hpp"
 #include "transport/transport.hpp"
 
 namespace liloc {
@@ -48,45 +48,33 @@ struct DriveResult {
 
 DriveResult run_odometry(const SystemConfig& config, const std::string& log_path,
                          const std::string& robot_id, CentralSessionBuilder& builder) {
-  transport::TransportConfig transport_config = config.transport;
-  transport_config.url = "file://" + log_path + "?speed=0";
-  transport_config.publish_url.clear();
-  transport::Transport bus(transport_config);
-  LidarInertialOdometry odometry(config.odometry);
+  // The odometry node, as the process runs it, on an in-process bus that the log is
+  // replayed into (deterministic, lossless); its keyframes go to the builder.
+  transport::TransportConfig in_process = config.transport;
+  in_process.url = "memq://";
+  in_process.publish_url.clear();
+  transport::Transport bus(in_process);
+  OdometryNode odometry(bus, robot_id, config.odometry_node());
   DriveResult drive;
-  const auto take = [&](const std::vector<OdometryEstimate>& estimates) {
-    for (const OdometryEstimate& e : estimates) {
-      ++drive.scans;
-      if (e.keyframe) {
-        builder.add(*e.keyframe);
+  bus.subscribe<liloc::odometry_t>(
+      transport::robot_channel(robot_id, config.channels.odom),
+      [&](const liloc::odometry_t&, const transport::ReceiveInfo&) { ++drive.scans; });
+  bus.subscribe<liloc::keyframe_t>(
+      transport::robot_channel(robot_id, config.channels.keyframe),
+      [&](const liloc::keyframe_t& msg, const transport::ReceiveInfo&) {
+        const Keyframe keyframe = bridge::from_msg(msg);
+        builder.add(keyframe);
         MapKeyframe kf;
-        kf.utime_us = e.keyframe->utime_us;
-        kf.T_map_body = e.keyframe->T_odom_body;
+        kf.utime_us = keyframe.utime_us;
+        kf.T_map_body = keyframe.T_odom_body;
         drive.odometry_keyframes.push_back(kf);
         if (drive.odometry_keyframes.size() % 200 == 0) {
           spdlog::info("{} keyframes, {} sweeps", drive.odometry_keyframes.size(), drive.scans);
         }
-      }
-    }
-  };
-  bus.subscribe<liloc::imu_t>(transport::robot_channel(robot_id, config.channels.imu),
-                              [&](const liloc::imu_t& msg, const transport::ReceiveInfo&) {
-                                size_t non_finite = 0;
-                                for (const ImuSample& s : bridge::from_msg(msg, &non_finite)) {
-                                  odometry.add_imu(s);
-                                }
-                                take(odometry.process());
-                              });
-  bus.subscribe<liloc::lidar_scan_t>(
-      transport::robot_channel(robot_id, config.channels.lidar),
-      [&](const liloc::lidar_scan_t& msg, const transport::ReceiveInfo&) {
-        size_t non_finite = 0;
-        odometry.add_scan(bridge::from_msg(msg, &non_finite));
-        take(odometry.process());
       });
-  while (bus.handle(100) >= 0) {
-  }
-  take(odometry.flush());
+  transport::replay_log(log_path, bus, {});
+  odometry.finish();
+  bus.drain();
   drive.counters = odometry.counters();
   if (drive.odometry_keyframes.empty()) {
     throw std::runtime_error("no keyframes from " + log_path + ": does it hold " +
@@ -123,10 +111,12 @@ MapData save_built_map(CentralSessionBuilder& builder, const SystemConfig& confi
   return map;
 }
 
-CentralSessionConfig central_session_config(const SystemConfig& config) {
-  CentralSessionConfig out = config.map_builder;
-  out.loops.descriptor = config.descriptor;  // one descriptor for the whole system
-  return out;
+CentralSessionBuilder central_session_builder(const SystemConfig& config,
+                                              const std::string& session, bool close_loops) {
+  CentralSessionConfig builder = config.map_builder;
+  builder.session = session;
+  builder.close_loops = builder.close_loops && close_loops;
+  return CentralSessionBuilder(builder, config.submaps, config.descriptor);
 }
 
 void print_map_summary(const std::string& directory, const MapData& map,
@@ -164,9 +154,8 @@ int build_map(int argc, const char* const* argv) {
     }
 
     const auto start = std::chrono::steady_clock::now();
-    CentralSessionConfig builder_config = central_session_config(config);
-    builder_config.close_loops = builder_config.close_loops && !no_loops;
-    CentralSessionBuilder builder(builder_config);
+    CentralSessionBuilder builder =
+        central_session_builder(config, config.map_builder.session, !no_loops);
     const DriveResult drive = run_odometry(config, args[0], robot_id, builder);
     const double odometry_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "map/central_session_builder.hpp"
+#include "mapping/central_session_builder.hpp"
 #include "system/system_config.hpp"
 
 namespace liloc {
@@ -16,8 +16,11 @@ int build_map_from_pcd(int argc, const char* const* argv);
 // Throws std::invalid_argument if the directory already holds a map: never overwritten.
 void require_new_map_directory(const std::string& directory);
 
-// The builder's config from the system's: its loop closure uses the system's descriptor.
-CentralSessionConfig central_session_config(const SystemConfig& config);
+// A builder with the system's settings (its loop closure uses the system's descriptor, its
+// submaps the system's rule) for `session`; loops closed if close_loops and the config
+// says so.
+CentralSessionBuilder central_session_builder(const SystemConfig& config,
+                                              const std::string& session, bool close_loops);
 
 // Optimizes, cuts into submaps, computes the keyframe descriptors, saves version 1 and
 // prints the summary.

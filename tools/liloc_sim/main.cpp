@@ -11,14 +11,10 @@
 #include "config/yaml_config.hpp"
 #include "liloc_sim/session_writer.hpp"
 #include "sim/lidar_model.hpp"
-#include "sim/random.hpp"
-
-namespace {
-using namespace liloc;
-
-}  // namespace
+#include "sim/session_recipe.hpp"
 
 int main(int argc, char** argv) {
+  using namespace liloc;
   std::string config_path;
   std::string out_dir = "data/sim";
   std::string world_kind;
@@ -49,14 +45,7 @@ int main(int argc, char** argv) {
     if (seed >= 0) {
       config.world.seed = seed;
     }
-    if (length_scale <= 0.0) {
-      throw std::invalid_argument("--length-scale must be positive");
-    }
-    config.sessions.a_length_m *= length_scale;
-    config.sessions.b_inside_m *= length_scale;
-    config.sessions.b_excursion_m *= length_scale;
-    config.sessions.c_length_m *= length_scale;
-    config.sessions.d_length_m *= length_scale;
+    sim::scale_session_lengths(config.sessions, length_scale);
     if (print_config) {
       std::printf("sim:\n%s\n", dump_config(config).c_str());
       return 0;
@@ -68,33 +57,23 @@ int main(int argc, char** argv) {
     }
 
     spdlog::info("generating {} world (seed {})", config.world.kind, config.world.seed);
-    sim::GeneratedWorld base = sim::generate_world(config.world);
-    sim::World changed = base.world;
-    const sim::DayChangeReport changes =
-        sim::apply_day_changes(changed, config.world.seed + 1, config.changes);
+    const sim::SimulatedSessions simulated(config);
+    const sim::World& base = simulated.base().world;
+    const sim::DayChangeReport& changes = simulated.day_changes();
     spdlog::info(
         "world: {} objects, {} primitives; day 1: {} of {} cars moved, {} removed, {} "
         "new structures, {} foliage changed",
-        base.world.objects().size(), base.world.num_primitives(), changes.cars_moved,
-        changes.cars_total, changes.cars_removed, changes.structures_added,
-        changes.foliage_changed);
+        base.objects().size(), base.num_primitives(), changes.cars_moved, changes.cars_total,
+        changes.cars_removed, changes.structures_added, changes.foliage_changed);
 
     std::printf("%-9s %-7s %-3s %9s %9s %7s %10s %9s %9s\n", "world", "lidar", "ses", "length_m",
                 "duration", "sweeps", "points", "log_MB", "wall_s");
-    int session_index = 0;
     for (const std::string& name : split_list(sessions)) {
-      const uint64_t session_seed = sim::hash_combine(static_cast<uint64_t>(config.world.seed),
-                                                      static_cast<uint64_t>(name[0]));
-      const sim::SessionPlan plan =
-          sim::plan_session(name, base.world, base.mapped_max_x_m, config.sessions, session_seed);
-      const sim::World& world = plan.day == 0 ? base.world : changed;
-      const int64_t start_utime =
-          config.start_utime + session_index * config.days_between_sessions * 86400LL * 1000000LL;
-      ++session_index;
+      const sim::SimulatedSession session = simulated.session(name);
       for (const std::string& model : models) {
         const std::string dir = out_dir + "/" + config.world.kind + "/" + model + "/" + name;
-        const tools::SessionOutput out = tools::write_session(
-            world, plan, config, model, start_utime, session_seed, dir, threads, true);
+        const tools::SessionOutput out =
+            tools::write_session(session, config, model, dir, threads, true);
         std::printf("%-9s %-7s %-3s %9.1f %9.1f %7lld %10lld %9.1f %9.1f\n",
                     config.world.kind.c_str(), model.c_str(), name.c_str(), out.length_m,
                     out.duration_s, static_cast<long long>(out.stats.sweeps),

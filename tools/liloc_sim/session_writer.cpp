@@ -79,10 +79,12 @@ void write_manifest(const std::string& path, const sim::SessionPlan& plan,
 }
 }  // namespace
 
-SessionOutput write_session(const sim::World& world, const sim::SessionPlan& plan,
+SessionOutput write_session(const sim::SimulatedSession& session,
                             const sim::SimulationConfig& config, const std::string& lidar_model,
-                            int64_t start_utime, uint64_t seed, const std::string& directory,
-                            int threads, bool show_progress) {
+                            const std::string& directory, int threads, bool show_progress) {
+  const sim::SessionPlan& plan = session.plan;
+  const int64_t start_utime = session.start_utime;
+  const uint64_t seed = session.seed;
   const auto wall_start = std::chrono::steady_clock::now();
   std::filesystem::create_directories(directory);
   SessionOutput out;
@@ -91,10 +93,10 @@ SessionOutput write_session(const sim::World& world, const sim::SessionPlan& pla
   out.ground_truth_path = directory + "/ground_truth.tum";
   out.manifest_path = directory + "/manifest.yaml";
 
-  const sim::VehicleTrajectory trajectory(world, plan.waypoints, config.motion, seed);
+  const sim::VehicleTrajectory trajectory(*session.world, plan.waypoints, config.motion, seed);
   const sim::LidarSpec spec = sim::lidar_spec(lidar_model);
-  const sim::SessionSimulator simulator(world, trajectory, spec, config.rig.rig(), config.imu, seed,
-                                        start_utime);
+  const sim::SessionSimulator simulator(*session.world, trajectory, spec, config.rig.rig(),
+                                        config.imu, seed, start_utime);
   out.length_m = trajectory.length_m();
   out.duration_s = trajectory.duration_s();
 

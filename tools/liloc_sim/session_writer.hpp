@@ -4,7 +4,8 @@
 
 #include <string>
 
-#include "sim/session_planner.hpp"
+#include "sim/session_recipe.hpp"
+#include "sim/session_simulator.hpp"
 #include "sim/simulation_config.hpp"
 
 namespace liloc::tools {
@@ -21,11 +22,10 @@ struct SessionOutput {
   size_t log_bytes = 0;
 };
 
-// Simulates `plan` in `world` with the given LiDAR and writes it under `directory`.
-// Prints progress to stderr when `show_progress`.
-SessionOutput write_session(const sim::World& world, const sim::SessionPlan& plan,
+// Simulates the session with the given LiDAR and writes it under `directory`. Prints
+// progress to stderr when `show_progress`.
+SessionOutput write_session(const sim::SimulatedSession& session,
                             const sim::SimulationConfig& config, const std::string& lidar_model,
-                            int64_t start_utime, uint64_t seed, const std::string& directory,
-                            int threads, bool show_progress);
+                            const std::string& directory, int threads, bool show_progress);
 
 }  // namespace liloc::tools

@@ -1,12 +1,14 @@
-#include "map/central_session_builder.hpp"
+#include "mapping/central_session_builder.hpp"
 
 #include <cmath>
 
 namespace liloc {
 
-CentralSessionBuilder::CentralSessionBuilder(const CentralSessionConfig& config)
-    : config_(config), loops_(config.loops) {
-  config_.submaps.validate();
+CentralSessionBuilder::CentralSessionBuilder(const CentralSessionConfig& config,
+                                             const SubmapConfig& submaps,
+                                             const PolarDescriptorConfig& descriptor)
+    : config_(config), submaps_(submaps), loops_(config.loops, descriptor) {
+  submaps_.validate();
 }
 
 void CentralSessionBuilder::add(const Keyframe& keyframe) {
@@ -55,7 +57,7 @@ MapData CentralSessionBuilder::build(std::map<int64_t, PointCloud>* clouds,
   const PoseGraphResult graph = loop_closures_ > 0
                                     ? optimize_pose_graph(map.keyframes, map.edges, config_.graph)
                                     : PoseGraphResult{};
-  map.submaps = join_submaps(map.keyframes, config_.submaps, 0);
+  map.submaps = join_submaps(map.keyframes, submaps_, 0);
   if (report != nullptr) {
     report->keyframes = map.keyframes.size();
     report->loop_closures = loop_closures_;

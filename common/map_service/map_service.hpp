@@ -37,7 +37,9 @@ struct MapServiceConfig {
   int max_update_keyframes = 1000;
   int64_t max_update_points = 20000000;
   double update_timeout_s = 30.0;  // an update still missing chunks after this is dropped
-  SubmapConfig submaps;
+  // Merged or rejected updates remembered, so that a repeated part is ignored; the oldest
+  // are forgotten beyond this.
+  int max_finished_updates = 10000;
 
   template <class V>
   void visit_fields(V& v) {
@@ -49,7 +51,7 @@ struct MapServiceConfig {
     v("max_update_keyframes", max_update_keyframes);
     v("max_update_points", max_update_points);
     v("update_timeout_s", update_timeout_s);
-    v("submaps", submaps);
+    v("max_finished_updates", max_finished_updates);
   }
   void validate() const;
 };
@@ -118,10 +120,11 @@ struct MapServiceCounters {
 
 class MapService {
  public:
+  // `submaps`: the rule (Eq. 2) that cut the map, which cuts merged updates too.
   // `store` (may be null; must outlive the service) keeps the deduplicated reply clouds of
   // submaps between requests and runs; its voxel size must be config.reply_voxel_m.
   MapService(MapData map, KeyframeCloudSource clouds, const MapServiceConfig& config,
-             const SubmapCloudStore* store = nullptr);
+             const SubmapConfig& submaps, const SubmapCloudStore* store = nullptr);
   MapService(const MapService&) = delete;
   MapService& operator=(const MapService&) = delete;
 
@@ -149,8 +152,9 @@ class MapService {
   std::vector<SubmapReplyPart> complete(ReplyPlan& plan) const;
   void remember(const ReplyPlan& plan);
 
-  // Buffers a part of an update; once all parts of it arrived and it is valid, merges it
-  // into the map (a new version). Malformed parts or updates are rejected with a reason.
+  // Buffers a part of an update; once all parts of it arrived and the map with it follows
+  // the rules of map/map_validation.hpp (the rules a save checks), merges it into the
+  // map. Malformed parts or updates are rejected with a reason.
   UpdateOutcome receive(MapUpdatePart part, int64_t now_us);
   // An update part the process could not even convert (a non-finite pose, offsets that
   // do not fit its cloud): the whole update is rejected and counted, like one that fails
@@ -160,17 +164,19 @@ class MapService {
   void expire(int64_t now_us);
 
   const MapData& map() const { return map_; }
-  const SubmapDatabase& database() const { return database_; }
   const MapServiceCounters& counters() const { return counters_; }
   // Reply clouds the store could not keep (they were sent all the same).
   int64_t store_errors() const { return store_errors_.load(); }
-  // Clouds merged since the last call: the process saves them with the map, then calls
-  // saved() with the version on disk, so that they are served from storage from then on
-  // and replies name the saved version.
-  std::map<int64_t, PointCloud> take_new_clouds();
+  // What was merged since the last call, clouds included: the process saves it, then
+  // calls saved() with the version on disk, so that those keyframes' clouds are served from
+  // storage from then on and replies name the saved version.
+  MapDelta take_unsaved();
   void saved(int64_t version, const std::vector<int64_t>& keyframe_ids);
+  // Updates merged or rejected that are still remembered (at most max_finished_updates).
+  size_t finished_updates() const { return finished_.size(); }
 
  private:
+  using UpdateKey = std::pair<std::string, int64_t>;  // (robot, update id)
   struct PendingUpdate {
     std::string session_id;
     int num_chunks = 0;
@@ -180,20 +186,24 @@ class MapService {
   };
   std::optional<std::string> validate(const MapUpdatePart& part) const;
   UpdateOutcome merge(const std::string& robot_id, PendingUpdate& update);
+  // The update is done (merged or rejected): repeats of it are ignored from now on.
+  void finish(const UpdateKey& key);
   // The clouds a reply sends for a submap: stored, or else computed and stored.
   std::shared_ptr<const SubmapClouds> reply_clouds(const ReplyPlan::Item& item) const;
 
   MapData map_;
   KeyframeCloudSource cloud_source_;
   MapServiceConfig config_;
+  SubmapConfig submaps_;
   const SubmapCloudStore* store_;
   mutable std::atomic<int64_t> store_errors_{0};
   SubmapDatabase database_;
   MapServiceCounters counters_;
-  std::map<std::pair<std::string, int64_t>, PendingUpdate> pending_;  // (robot, update id)
-  std::set<std::pair<std::string, int64_t>> finished_;  // merged or rejected: repeats ignored
-  std::map<int64_t, std::shared_ptr<const PointCloud>> merged_clouds_;  // until saved
-  std::map<int64_t, PointCloud> unsaved_clouds_;
+  std::map<UpdateKey, PendingUpdate> pending_;
+  std::set<UpdateKey> finished_;          // merged or rejected: repeats ignored
+  std::deque<UpdateKey> finished_order_;  // oldest first, to forget beyond the bound
+  std::map<int64_t, std::shared_ptr<const PointCloud>> merged_clouds_;  // served until saved
+  MapDelta unsaved_;  // merged since the last take_unsaved()
   std::map<int64_t, std::shared_ptr<const SubmapClouds>> reply_clouds_;
   std::deque<int64_t> reply_clouds_order_;  // least recently used first
   int64_t generation_ = 0;                  // +1 on every change of the map

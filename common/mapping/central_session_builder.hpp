@@ -4,6 +4,8 @@
 // (descriptor candidates verified by registration) add loop edges; the pose graph is
 // optimized; the keyframes are joined into submaps (Eq. 2). The paper builds its prior
 // map from odometry alone; closing loops makes a 1.5 km drive a consistent map.
+// The submap rule (Eq. 2) and the descriptor are the system's (one source each, shared
+// with the map service and the initializer), not the builder's.
 
 #include <map>
 #include <string>
@@ -11,8 +13,8 @@
 
 #include "loop_closure/loop_closure.hpp"
 #include "map/map_types.hpp"
-#include "map/pose_graph_optimizer.hpp"
 #include "map/submap_database.hpp"
+#include "mapping/pose_graph_optimizer.hpp"
 #include "odometry/odometry_types.hpp"
 
 namespace liloc {
@@ -27,7 +29,6 @@ struct CentralSessionConfig {
   bool close_loops = true;
   LoopClosureConfig loops;
   PoseGraphConfig graph;
-  SubmapConfig submaps;
 
   template <class V>
   void visit_fields(V& v) {
@@ -38,7 +39,6 @@ struct CentralSessionConfig {
     v("close_loops", close_loops);
     v("loops", loops);
     v("graph", graph);
-    v("submaps", submaps);
   }
 };
 
@@ -51,7 +51,8 @@ struct CentralSessionReport {
 
 class CentralSessionBuilder {
  public:
-  explicit CentralSessionBuilder(const CentralSessionConfig& config);
+  CentralSessionBuilder(const CentralSessionConfig& config, const SubmapConfig& submaps,
+                        const PolarDescriptorConfig& descriptor);
 
   // The drive's next keyframe (its odometry frame becomes the map frame).
   void add(const Keyframe& keyframe);
@@ -61,6 +62,7 @@ class CentralSessionBuilder {
 
  private:
   CentralSessionConfig config_;
+  SubmapConfig submaps_;
   LoopClosureDetector loops_;
   std::vector<MapKeyframe> keyframes_;
   std::vector<PoseGraphEdge> edges_;

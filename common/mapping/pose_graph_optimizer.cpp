@@ -1,4 +1,4 @@
-#include "map/pose_graph_optimizer.hpp"
+#include "mapping/pose_graph_optimizer.hpp"
 
 #include <ceres/loss_function.h>
 #include <ceres/manifold.h>
@@ -8,7 +8,7 @@
 #include <map>
 #include <stdexcept>
 
-#include "map/relative_pose_cost.hpp"
+#include "mapping/relative_pose_cost.hpp"
 
 namespace liloc {
 

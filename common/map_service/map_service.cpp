@@ -1,15 +1,17 @@
-#include "map/map_service.hpp"
+#include "map_service/map_service.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
+#include "map/map_validation.hpp"
+
 namespace liloc {
 
 void MapServiceConfig::validate() const {
-  submaps.validate();
   if (max_submaps_per_reply < 1 || max_chunk_points < 1 || max_update_keyframes < 1 ||
-      max_update_points < 1 || update_timeout_s <= 0 || reply_cache_submaps < 1) {
+      max_update_points < 1 || !(update_timeout_s > 0) || reply_cache_submaps < 1 ||
+      max_finished_updates < 1) {
     throw std::invalid_argument("limits and timeout must be positive");
   }
   if (!(reply_voxel_m >= 0.0)) {
@@ -18,13 +20,15 @@ void MapServiceConfig::validate() const {
 }
 
 MapService::MapService(MapData map, KeyframeCloudSource clouds, const MapServiceConfig& config,
-                       const SubmapCloudStore* store)
+                       const SubmapConfig& submaps, const SubmapCloudStore* store)
     : map_(std::move(map)),
       cloud_source_(std::move(clouds)),
       config_(config),
+      submaps_(submaps),
       store_(store),
       database_(map_) {
   config_.validate();
+  submaps_.validate();
   if (store_ != nullptr && store_->voxel_m() != config_.reply_voxel_m) {
     throw std::invalid_argument("the submap cloud store's voxel size (" +
                                 std::to_string(store_->voxel_m()) + " m) is not reply_voxel_m (" +
@@ -213,22 +217,32 @@ std::optional<std::string> MapService::validate(const MapUpdatePart& part) const
 
 UpdateOutcome MapService::reject(const std::string& robot_id, int64_t update_id,
                                  const std::string& reason) {
-  const std::pair<std::string, int64_t> key(robot_id, update_id);
+  const UpdateKey key(robot_id, update_id);
   UpdateOutcome outcome;
   if (finished_.count(key) != 0) {
     return outcome;  // a repeat of a finished update: nothing to do
   }
-  pending_.erase(key);
-  finished_.insert(key);
+  finish(key);
   ++counters_.updates_rejected;
   outcome.status = UpdateOutcome::Status::kRejected;
   outcome.reason = reason;
   return outcome;
 }
 
+void MapService::finish(const UpdateKey& key) {
+  pending_.erase(key);
+  if (finished_.insert(key).second) {
+    finished_order_.push_back(key);
+  }
+  while (finished_order_.size() > static_cast<size_t>(config_.max_finished_updates)) {
+    finished_.erase(finished_order_.front());
+    finished_order_.pop_front();
+  }
+}
+
 UpdateOutcome MapService::receive(MapUpdatePart part, int64_t now_us) {
   UpdateOutcome outcome;
-  const std::pair<std::string, int64_t> key(part.robot_id, part.update_id);
+  const UpdateKey key(part.robot_id, part.update_id);
   if (finished_.count(key) != 0) {
     return outcome;  // a repeat of a finished update: nothing to do
   }
@@ -258,8 +272,10 @@ UpdateOutcome MapService::receive(MapUpdatePart part, int64_t now_us) {
     return outcome;
   }
   outcome = merge(key.first, update);
-  pending_.erase(key);
-  finished_.insert(key);
+  if (outcome.status == UpdateOutcome::Status::kRejected) {
+    return reject(outcome.reason);
+  }
+  finish(key);
   return outcome;
 }
 
@@ -277,9 +293,10 @@ void MapService::expire(int64_t now_us) {
 
 UpdateOutcome MapService::merge(const std::string& robot_id, PendingUpdate& update) {
   UpdateOutcome outcome;
+  outcome.status = UpdateOutcome::Status::kRejected;
   int64_t next_keyframe_id = map_.keyframes.empty() ? 0 : map_.keyframes.back().id + 1;
-  int64_t next_submap_id = map_.submaps.empty() ? 0 : map_.submaps.back().id + 1;
-  std::vector<MapKeyframe> added;
+  const int64_t next_submap_id = map_.submaps.empty() ? 0 : map_.submaps.back().id + 1;
+  MapDelta delta;
   for (auto& [index, keyframes] : update.chunks) {
     for (UpdateKeyframe& kf : keyframes) {
       MapKeyframe m;
@@ -288,43 +305,48 @@ UpdateOutcome MapService::merge(const std::string& robot_id, PendingUpdate& upda
       m.session = update.session_id.empty() ? robot_id : update.session_id;
       m.T_map_body = kf.T_map_body;
       m.fitness_m = kf.fitness_m;
-      added.push_back(m);
-      auto cloud = std::make_shared<const PointCloud>(std::move(kf.cloud_body));
-      unsaved_clouds_[m.id] = *cloud;
-      merged_clouds_[m.id] = std::move(cloud);
+      delta.keyframes.push_back(m);
+      delta.clouds[m.id] = std::make_shared<const PointCloud>(std::move(kf.cloud_body));
     }
   }
-  if (added.empty()) {
-    ++counters_.updates_rejected;
-    outcome.status = UpdateOutcome::Status::kRejected;
+  if (delta.keyframes.empty()) {
     outcome.reason = "update without keyframes";
     return outcome;
   }
   // New submaps by Eq. 2, and the chain of the session's relative poses as edges.
-  outcome.new_submaps = join_submaps(added, config_.submaps, next_submap_id);
-  for (size_t i = 1; i < added.size(); ++i) {
+  delta.submaps = join_submaps(delta.keyframes, submaps_, next_submap_id);
+  for (size_t i = 1; i < delta.keyframes.size(); ++i) {
     PoseGraphEdge e;
-    e.from = added[i - 1].id;
-    e.to = added[i].id;
-    e.T_from_to = added[i - 1].T_map_body.inverse() * added[i].T_map_body;
-    map_.edges.push_back(e);
+    e.from = delta.keyframes[i - 1].id;
+    e.to = delta.keyframes[i].id;
+    e.T_from_to = delta.keyframes[i - 1].T_map_body.inverse() * delta.keyframes[i].T_map_body;
+    delta.edges.push_back(e);
   }
-  map_.keyframes.insert(map_.keyframes.end(), added.begin(), added.end());
-  map_.submaps.insert(map_.submaps.end(), outcome.new_submaps.begin(), outcome.new_submaps.end());
+  // The rules a save checks, on the map as it would be: what is merged can be saved.
+  MapData merged = map_;
+  delta.append_to(merged);
+  if (const std::optional<MapProblem> problem = find_map_problem(merged)) {
+    outcome.reason = problem->what;
+    return outcome;
+  }
+  map_ = std::move(merged);
   database_ = SubmapDatabase(map_);
+  merged_clouds_.insert(delta.clouds.begin(), delta.clouds.end());
   ++counters_.updates_merged;
   reply_clouds_.clear();  // a merge may re-cut submaps: recompute what replies send
   reply_clouds_order_.clear();
   ++generation_;
-  counters_.keyframes_merged += static_cast<int64_t>(added.size());
+  counters_.keyframes_merged += static_cast<int64_t>(delta.keyframes.size());
   outcome.status = UpdateOutcome::Status::kMerged;
-  outcome.new_keyframes = std::move(added);
+  outcome.new_keyframes = delta.keyframes;
+  outcome.new_submaps = delta.submaps;
+  delta.append_to(unsaved_);
   return outcome;
 }
 
-std::map<int64_t, PointCloud> MapService::take_new_clouds() {
-  std::map<int64_t, PointCloud> out;
-  out.swap(unsaved_clouds_);
+MapDelta MapService::take_unsaved() {
+  MapDelta out;
+  std::swap(out, unsaved_);
   return out;
 }
 
