@@ -21,7 +21,8 @@ file(GLOB_RECURSE files
      ${SOURCE_DIR}/common/*.hpp ${SOURCE_DIR}/common/*.cpp ${SOURCE_DIR}/common/*.txt
      ${SOURCE_DIR}/processes/*.cpp ${SOURCE_DIR}/tools/*.hpp ${SOURCE_DIR}/tools/*.cpp
      ${SOURCE_DIR}/bench/*.cpp ${SOURCE_DIR}/tests/*.cpp ${SOURCE_DIR}/tests/*.hpp
-     ${SOURCE_DIR}/docs/*.md ${SOURCE_DIR}/README.md ${SOURCE_DIR}/config/*.yaml)
+     ${SOURCE_DIR}/docs/*.md ${SOURCE_DIR}/README.md ${SOURCE_DIR}/config/*.yaml
+     ${SOURCE_DIR}/lcmtypes/*.lcm)
 set(problems "")
 set(citations 0)
 foreach(f ${files})

@@ -148,5 +148,35 @@ TEST_F(ConfigFile, DumpedConfigLoadsBackEqual) {
   EXPECT_TRUE(back.offset_m.isApprox(c.offset_m));
 }
 
+// Values a config must never take: a non-finite number, a key given twice (YAML keeps
+// both and the first would win silently), a directory given as the file.
+TEST_F(ConfigFile, RefusesNonFiniteNumbersDuplicateKeysAndDirectories) {
+  for (const std::string nan : {".nan", ".inf", "-.inf", ".NaN"}) {
+    const std::string error = error_of("rate_hz: " + nan + "\n");
+    EXPECT_NE(error.find("rate_hz' must be a finite number"), std::string::npos) << error;
+  }
+  const std::string twice = error_of("rate_hz: 5\nname: a\nrate_hz: 7\n");
+  EXPECT_NE(twice.find(":3: key 'rate_hz' is given twice"), std::string::npos) << twice;
+  const std::string nested = error_of("inner:\n  count: 1\n  count: 2\n");
+  EXPECT_NE(nested.find("key 'inner.count' is given twice"), std::string::npos) << nested;
+  try {
+    load_config<SampleConfig>(::testing::TempDir());
+    FAIL() << "a directory loaded as a config";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("is a directory"), std::string::npos) << e.what();
+  }
+}
+
+// What dump_config(config, section) prints, load_config(path, section) reads back: a tool's
+// --print-config output is a config file for its --config.
+TEST_F(ConfigFile, ASectionDumpLoadsBackAsThatSection) {
+  SampleConfig config;
+  config.rate_hz = 42.5;
+  config.inner.count = 9;
+  const SampleConfig back = load_config<SampleConfig>(write(dump_config(config, "sim")), "sim");
+  EXPECT_DOUBLE_EQ(back.rate_hz, 42.5);
+  EXPECT_EQ(back.inner.count, 9);
+}
+
 }  // namespace
 }  // namespace liloc

@@ -21,6 +21,7 @@
 #include "bridge/map_conversions.hpp"
 #include "liloc/status_t.hpp"
 #include "map_test_data.hpp"
+#include "node/reply_route.hpp"
 #include "storage/map_store.hpp"
 #include "transport/channels.hpp"
 #include "transport/transport.hpp"
@@ -31,12 +32,12 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-constexpr const char* kRobot = "testbot";
+constexpr const char* kRobot = "robot7";  // allowed to update by config/liloc.yaml
 
 // Ports of this test only (7800-7999, by process id), so that it runs beside other tests,
 // the demo and the same test of another build tree.
-std::string url(int offset) {
-  return "udpm://239.255.76.67:" + std::to_string(7800 + 2 * (::getpid() % 100) + offset) +
+std::string url() {
+  return "udpm://239.255.76.67:" + std::to_string(7800 + 10 * (::getpid() % 20)) +
          "?ttl=0&recv_buf_size=2097152";
 }
 
@@ -46,7 +47,7 @@ std::string url(int offset) {
 class ServerProcess {
  public:
   explicit ServerProcess(const std::string& map_dir) {
-    const std::string bus = url(0);
+    const std::string bus = url();
     pid_ = ::fork();
     if (pid_ == 0) {
       ::execl(LILOC_MAP_SERVER, LILOC_MAP_SERVER, "--config", LILOC_SOURCE_DIR "/config/liloc.yaml",
@@ -88,7 +89,10 @@ class ServerProcess {
 
 class Robot {
  public:
-  Robot() : bus_(config(url(0))), replies_(config(url(1))) {
+  // Replies come on the robot's own port (node/reply_route.hpp), as the server computes it.
+  Robot()
+      : bus_(config(url())),
+        replies_(config(node::reply_url(url(), transport::TransportConfig{}.reply_ports, kRobot))) {
     replies_.subscribe<liloc::submap_t>(
         transport::robot_channel(kRobot, "SUBMAP"),
         [this](const liloc::submap_t& msg, const transport::ReceiveInfo&) {
@@ -155,13 +159,12 @@ TEST(MapServerProcess, ServesRobotsRefusesBadInputAndStopsCleanly) {
   ServerProcess server(dir + "/map");
   ASSERT_TRUE(server.started());
   Robot robot;
-  const std::string reply_url = url(1);
 
   // Where am I: the nearest submap, no clouds. The server is up once it answers.
   SubmapQuery where;
   where.position = Eigen::Vector3d(27.0, 0.5, 0.0);
   where.include_clouds = false;
-  where.reply_url = reply_url;
+  where.reply_url = "udpm://239.255.76.67:9?ttl=1";  // ignored: the server picks the route
   int64_t asked = 0;
   for (int attempt = 0; attempt < 30 && (asked == 0 || !robot.complete(asked)); ++attempt) {
     asked = robot.request(where);
@@ -178,7 +181,6 @@ TEST(MapServerProcess, ServesRobotsRefusesBadInputAndStopsCleanly) {
   SubmapQuery fetch;
   fetch.by_id = true;
   fetch.submap_ids = {0};
-  fetch.reply_url = reply_url;
   const int64_t fetched = robot.request(fetch);
   ASSERT_TRUE(robot.wait([&] { return robot.complete(fetched); }, 10.0));
   size_t keyframes = 0, points = 0;
@@ -200,11 +202,15 @@ TEST(MapServerProcess, ServesRobotsRefusesBadInputAndStopsCleanly) {
   EXPECT_GT(points, 0u);
   EXPECT_LT(points, 20u * 1500u / 2u);  // deduplicated: far fewer than 20 full clouds
 
-  // A reply URL the server cannot serve: no reply, counted.
-  SubmapQuery refused = where;
-  refused.reply_url = "memq://";
-  robot.request(refused);
-  // An update with a non-finite pose: rejected, counted.
+  // An update from a robot the config does not name: refused, counted. One with a
+  // non-finite pose: rejected, counted.
+  MapUpdatePart intruder;
+  intruder.robot_id = "intruder";
+  intruder.session_id = "X";
+  intruder.update_id = 1;
+  intruder.num_chunks = 1;
+  liloc::map_update_t intruder_msg = bridge::to_msg(intruder, 0);
+  robot.bus().publish(transport::ChannelConfig{}.map_update, intruder_msg);
   MapUpdatePart update;
   update.robot_id = kRobot;
   update.session_id = "B";
@@ -218,10 +224,11 @@ TEST(MapServerProcess, ServesRobotsRefusesBadInputAndStopsCleanly) {
   robot.bus().publish(transport::ChannelConfig{}.map_update, update_msg);
   EXPECT_TRUE(robot.wait(
       [&] {
-        return robot.counter("refused_reply_urls") >= 1 && robot.counter("updates_rejected") >= 1;
+        return robot.counter("updates_refused_robot") >= 1 &&
+               robot.counter("updates_rejected") >= 1;
       },
       5.0))
-      << "refused_reply_urls " << robot.counter("refused_reply_urls") << ", updates_rejected "
+      << "updates_refused_robot " << robot.counter("updates_refused_robot") << ", updates_rejected "
       << robot.counter("updates_rejected");
 
   // The background filler computes the reply clouds the map lacks at start (all three, or

@@ -3,8 +3,10 @@
 #include <chrono>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <thread>
 
+#include "app/process_memory.hpp"
 #include "bridge/map_conversions.hpp"
 #include "liloc/status_t.hpp"
 #include "map_server_node/map_server_node.hpp"
@@ -32,6 +34,7 @@ struct ServedMap {
     bus = std::make_unique<transport::Transport>(memq);
     MapServerNodeConfig config;
     config.map_server.service.reply_voxel_m = 0.0;  // full keyframe clouds, no derived files
+    config.map_server.service.allowed_robots = {"robot0"};
     config.map_server.info_period_s = 0.01;
     server = std::make_unique<MapServerNode>(*bus, config, store, store.load());
     bus->subscribe<liloc::submap_t>(
@@ -123,6 +126,50 @@ TEST(MapServerNode, AnswersMergesSavesAndReports) {
   EXPECT_EQ(on_disk.keyframes.size(), 70u);
   EXPECT_EQ(on_disk.keyframes.back().session, "B");
   EXPECT_EQ(served.server->map().keyframes.size(), 70u);
+}
+
+// Hostile and malformed updates in floods: each is refused with a counted reason, the
+// pending state stays within its bounds, memory stays bounded, and a good update after
+// them all is merged and saved.
+TEST(MapServerNode, StaysBoundedAndKeepsSavingUnderFloods) {
+  ServedMap served("flood");
+  const ProcessMemory before = read_process_memory();
+  for (int64_t id = 0; id < 2000; ++id) {  // chunk 0 of 2, never completed
+    MapUpdatePart part = update("B", 100 + id, 20, 3.0);
+    part.num_chunks = 2;
+    served.send(part);
+  }
+  for (int64_t id = 0; id < 1000; ++id) {  // senders the config does not name
+    MapUpdatePart part = update("B", id, 2, 3.0);
+    part.robot_id = "stranger" + std::to_string(id);
+    served.send(part);
+  }
+  for (const double bad : {std::nan(""), std::numeric_limits<double>::infinity()}) {
+    MapUpdatePart part = update("B", 5000, 2, 3.0);
+    part.keyframes[1].fitness_m = bad;
+    served.send(part);
+  }
+  MapUpdatePart far = update("B", 5001, 2, 3.0);
+  far.keyframes[0].T_map_body.translation().x() = 1e308;
+  served.send(far);
+  for (const std::string& session : {std::string("a,b"), std::string("q\"x"), std::string("\t")}) {
+    served.send(update(session, 5002, 2, 3.0));
+  }
+  SubmapQuery query;
+  query.robot_id = "bad\nrobot";
+  liloc::submap_request_t request = bridge::to_msg(query, 0);
+  served.bus->publish("MAP.REQUEST", request);
+  served.send(update("B", 9000, 25, 3.0));
+  ASSERT_TRUE(served.run_until([&] { return served.counters["map_version"] == 2; }));
+  const ProcessMemory after = read_process_memory();
+  EXPECT_EQ(served.counters["updates_merged"], 1);
+  EXPECT_EQ(served.counters["updates_pending"], 8);  // max_pending_updates
+  EXPECT_EQ(served.counters["updates_refused_busy"], 1992);
+  EXPECT_EQ(served.counters["updates_refused_robot"], 1000);
+  EXPECT_EQ(served.counters["updates_rejected"], 6);
+  EXPECT_EQ(served.counters["requests_refused"], 1);
+  EXPECT_LT(after.rss_mb - before.rss_mb, 60.0);
+  EXPECT_TRUE(served.server->finish());
 }
 
 // The saver never lets one bad change block the others: a delta the map's rules refuse is

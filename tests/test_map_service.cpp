@@ -39,6 +39,7 @@ struct ServiceFixture {
   static MapServiceConfig full_clouds() {
     MapServiceConfig config;
     config.reply_voxel_m = 0.0;
+    config.allowed_robots = {"r1", "r2"};
     return config;
   }
   MapService service(MapServiceConfig config = full_clouds(),
@@ -291,12 +292,9 @@ TEST(MapService, MergesACompleteUpdateIntoNewSubmaps) {
 
 TEST(MapService, RejectsBadUpdatesAndExpiresIncompleteOnes) {
   ServiceFixture f;
-  MapServiceConfig config;
-  config.allowed_robots = {"r1", "r2"};
+  MapServiceConfig config = ServiceFixture::full_clouds();
   config.max_update_points = 10;
   MapService s = f.service(config);
-  EXPECT_EQ(s.receive(update_part("intruder", 1, 0, 1, 3, 0), 0).status,
-            UpdateOutcome::Status::kRejected);
   MapUpdatePart nan = update_part("r1", 2, 0, 1, 3, 0);
   nan.keyframes[1].T_map_body.translation().x() = std::nan("");
   const UpdateOutcome non_finite = s.receive(nan, 0);
@@ -306,14 +304,14 @@ TEST(MapService, RejectsBadUpdatesAndExpiresIncompleteOnes) {
             UpdateOutcome::Status::kRejected);  // 20 points > 10
   EXPECT_EQ(s.receive(update_part("r1", 4, 3, 2, 1, 0), 0).status,
             UpdateOutcome::Status::kRejected);  // chunk 3 of 2
-  EXPECT_EQ(s.counters().updates_rejected, 4);
+  EXPECT_EQ(s.counters().updates_rejected, 3);
   // A part the process could not convert rejects its whole update: the other part that
-  // arrived before it is dropped, and later ones are ignored.
+  // arrived before it is dropped.
   EXPECT_EQ(s.receive(update_part("r2", 6, 0, 2, 1, 0), 0).status, UpdateOutcome::Status::kPending);
-  EXPECT_EQ(s.reject("r2", 6, "pose has a non-finite value").status,
+  EXPECT_EQ(s.reject("r2", "r2-B", 6, "pose has a non-finite value").status,
             UpdateOutcome::Status::kRejected);
-  EXPECT_EQ(s.counters().updates_rejected, 5);
-  EXPECT_EQ(s.receive(update_part("r2", 6, 1, 2, 1, 0), 0).status, UpdateOutcome::Status::kPending);
+  EXPECT_EQ(s.counters().updates_rejected, 4);
+  EXPECT_EQ(s.pending_updates(), 0u);
   EXPECT_EQ(s.receive(update_part("r2", 5, 0, 2, 1, 0), 0).status, UpdateOutcome::Status::kPending);
   s.expire(static_cast<int64_t>(31e6));
   EXPECT_EQ(s.counters().updates_expired, 1);
@@ -332,8 +330,8 @@ TEST(MapService, RefusesUpdatesTheMapCouldNotSave) {
   UpdateOutcome outcome = merge(comma);
   EXPECT_EQ(outcome.status, UpdateOutcome::Status::kRejected);
   EXPECT_NE(outcome.reason.find("session"), std::string::npos) << outcome.reason;
-  MapUpdatePart control = update_part(std::string("r\x01"), 2, 0, 1, 3, 0);
-  control.session_id.clear();  // the robot id names the session then
+  MapUpdatePart control = update_part("r1", 2, 0, 1, 3, 0);
+  control.session_id = std::string("B\x01");
   EXPECT_EQ(merge(control).status, UpdateOutcome::Status::kRejected);
   MapUpdatePart fitness = update_part("r1", 3, 0, 1, 3, 0);
   fitness.keyframes[2].fitness_m = std::numeric_limits<double>::infinity();
@@ -349,19 +347,76 @@ TEST(MapService, RefusesUpdatesTheMapCouldNotSave) {
   EXPECT_FALSE(find_map_problem(s.map()));
 }
 
-// Finished updates are remembered so that repeats are ignored, but not without bound.
-TEST(MapService, ForgetsTheOldestFinishedUpdatesBeyondItsBound) {
+// Only robots the config names grow the map: anyone else is refused and counted (an empty
+// list refuses everyone).
+TEST(MapService, OnlyNamedRobotsUpdateTheMap) {
+  ServiceFixture f;
+  MapService s = f.service();
+  const UpdateOutcome intruder = s.receive(update_part("intruder", 1, 0, 1, 3, 0), 0);
+  EXPECT_EQ(intruder.status, UpdateOutcome::Status::kRejected);
+  EXPECT_NE(intruder.reason.find("allowed_robots"), std::string::npos) << intruder.reason;
+  EXPECT_EQ(s.counters().updates_refused_robot, 1);
+  MapServiceConfig none = ServiceFixture::full_clouds();
+  none.allowed_robots.clear();
+  MapService closed = f.service(none);
+  EXPECT_EQ(closed.receive(update_part("r1", 1, 0, 1, 3, 0), 0).status,
+            UpdateOutcome::Status::kRejected);
+  EXPECT_EQ(closed.map().keyframes.size(), 60u);
+}
+
+// An update is known by (robot, session, update id) and only merged ones are remembered:
+// a rejected spoof with a real update's ids does not make the real one be ignored, a
+// robot restarting its ids in a new session is not taken for a repeat, and a repeat of a
+// merged update is counted, not merged twice.
+TEST(MapService, ARejectedUpdateNeverShadowsARealOne) {
+  ServiceFixture f;
+  MapService s = f.service();
+  MapUpdatePart spoof = update_part("r1", 7, 0, 1, 3, 0);
+  spoof.keyframes[0].fitness_m = std::nan("");
+  EXPECT_EQ(s.receive(spoof, 0).status, UpdateOutcome::Status::kRejected);
+  EXPECT_EQ(s.receive(update_part("r1", 7, 0, 1, 3, 0), 0).status, UpdateOutcome::Status::kMerged);
+  EXPECT_EQ(s.receive(update_part("r1", 7, 0, 1, 3, 0), 0).status, UpdateOutcome::Status::kPending);
+  EXPECT_EQ(s.counters().updates_repeated, 1);
+  MapUpdatePart next_session = update_part("r1", 7, 0, 1, 3, 0);
+  next_session.session_id = "r1-C";
+  EXPECT_EQ(s.receive(next_session, 0).status, UpdateOutcome::Status::kMerged);
+  EXPECT_EQ(s.map().keyframes.size(), 66u);
+}
+
+// Updates waiting for chunks are bounded in count and points: beyond, new ones are
+// refused (counted) until those complete or expire.
+TEST(MapService, PendingUpdatesAreBounded) {
   ServiceFixture f;
   MapServiceConfig config = ServiceFixture::full_clouds();
-  config.max_finished_updates = 100;
+  config.max_pending_updates = 3;
+  config.max_pending_points = 1000;
   MapService s = f.service(config);
-  for (int64_t id = 0; id < 1000; ++id) {
-    s.reject("r1", id, "test");
+  for (int64_t id = 0; id < 100; ++id) {
+    s.receive(update_part("r1", id, 0, 2, 1, 0), 0);  // chunk 0 of 2, never completed
   }
-  EXPECT_EQ(s.counters().updates_rejected, 1000);
-  EXPECT_EQ(s.finished_updates(), 100u);
-  s.reject("r1", 999, "repeat");  // still remembered: ignored
-  EXPECT_EQ(s.counters().updates_rejected, 1000);
+  EXPECT_EQ(s.pending_updates(), 3u);
+  EXPECT_EQ(s.counters().updates_refused_busy, 97);
+  EXPECT_EQ(s.receive(update_part("r2", 1, 0, 2, 2000, 0), 0).status,
+            UpdateOutcome::Status::kRejected);
+  s.expire(static_cast<int64_t>(31e6));
+  EXPECT_EQ(s.pending_updates(), 0u);
+  EXPECT_EQ(s.receive(update_part("r2", 2, 0, 2, 1, 0), 0).status, UpdateOutcome::Status::kPending);
+}
+
+// Merged updates are remembered so that repeats are ignored, but not without bound.
+TEST(MapService, ForgetsTheOldestMergedUpdatesBeyondItsBound) {
+  ServiceFixture f;
+  MapServiceConfig config = ServiceFixture::full_clouds();
+  config.max_finished_updates = 10;
+  MapService s = f.service(config);
+  for (int64_t id = 0; id < 30; ++id) {
+    ASSERT_EQ(s.receive(update_part("r1", id, 0, 1, 1, 0), 0).status,
+              UpdateOutcome::Status::kMerged);
+  }
+  EXPECT_EQ(s.finished_updates(), 10u);
+  s.receive(update_part("r1", 29, 0, 1, 1, 0), 0);  // still remembered: ignored
+  EXPECT_EQ(s.counters().updates_repeated, 1);
+  EXPECT_EQ(s.counters().updates_merged, 30);
 }
 
 }  // namespace

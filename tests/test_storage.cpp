@@ -515,6 +515,14 @@ std::string version_file(const std::string& dir, const std::string& name) {
   return current_version_dir(dir) + "/" + name;
 }
 
+// A file where the map directory should be is named as such, not as a missing directory.
+TEST(MapStore, AFileGivenAsTheMapDirectoryIsNamed) {
+  ScratchDir dir("file_as_map");
+  std::ofstream(dir.path("map")) << "not a map";
+  const std::string error = load_error(dir.path("map"));
+  EXPECT_NE(error.find("/map: is a file, not a map directory"), std::string::npos) << error;
+}
+
 INSTANTIATE_TEST_SUITE_P(
     MapStore, LoadDamagedMap,
     ::testing::Values(

@@ -46,6 +46,20 @@ TEST(SystemConfig, ABadMapServerValueNamesIt) {
   expect_config_error("map_server:\n  reply_threads: 0\n", "reply_threads must be 1 to 64, got 0");
 }
 
+// Values no config may hold are refused naming the key: negative sigmas, impossible
+// cache sizes, sensor limits that are no limits.
+TEST(SystemConfig, RefusesImpossibleValuesNamingThem) {
+  expect_config_error("odometry:\n  motion_translation_sigma_mps: -1\n",
+                      "motion_translation_sigma_mps must be positive");
+  expect_config_error("odometry:\n  max_range_m: .nan\n", "must be a finite number");
+  expect_config_error("map_server:\n  cache_mb: 1e20\n", "cache_mb must be in (0, 1e6]");
+  expect_config_error("sensors:\n  confirm_jump_messages: 0\n", "confirm_jump_messages");
+  expect_config_error("map_builder:\n  odometry_translation_sigma_m: -0.01\n",
+                      "odometry sigmas must be positive");
+  expect_config_error("map_server:\n  service:\n    allowed_robots: [\"a,b\"]\n",
+                      "allowed robot 'a,b' is not a valid name");
+}
+
 // Each setting has one home: the descriptor and the submap rule (Eq. 2) are system
 // sections, so the builder's loop closure and the map service cannot be given other ones
 // that would be accepted and then ignored, or cut a built map and merged updates apart.

@@ -3,12 +3,17 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
+#include <iterator>
+#include <lcm/lcm-cpp.hpp>
+#include <limits>
 #include <thread>
 
 #include "bridge/lcm_conversions.hpp"
 #include "bridge/message_samples.hpp"
 #include "liloc/status_t.hpp"
 #include "transport/log_file.hpp"
+#include "transport/sequence_tracker.hpp"
 #include "transport/transport.hpp"
 
 namespace liloc::transport {
@@ -28,6 +33,68 @@ std::vector<uint8_t> encode(const Msg& msg) {
 }
 
 std::string temp_path(const std::string& name) { return ::testing::TempDir() + name; }
+
+std::vector<uint8_t> read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void write_file(const std::string& path, const std::vector<uint8_t>& bytes) {
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(bytes.data()),
+             static_cast<std::streamsize>(bytes.size()));
+}
+
+// `count` status messages on "IN" with seq 0, 1, ..., 1 ms apart; all events have one size,
+// returned so that a test can find the boundaries between them.
+int64_t write_status_log(const std::string& path, int count) {
+  {
+    LogWriter writer(path);
+    auto msg = bridge::make_sample<liloc::status_t>("r");
+    for (int i = 0; i < count; ++i) {
+      msg.header.seq = i;
+      writer.write("IN", 1000000 + i * 1000, msg);
+    }
+  }
+  return static_cast<int64_t>(read_file(path).size()) / count;
+}
+
+// What a recorder killed mid-write and restarted leaves: the start of an event header whose
+// channel length is nonsense (lcm::LogFile ends the log there), then junk.
+std::vector<uint8_t> torn_write() {
+  std::vector<uint8_t> bytes = {0xED, 0xA1, 0xDA, 0x01};  // the event magic
+  bytes.resize(bytes.size() + 16, 0);                     // event number, timestamp
+  bytes.insert(bytes.end(), {0xFF, 0xFF, 0xFF, 0xFF});    // channel length -1
+  bytes.resize(bytes.size() + 100, 0xAB);
+  return bytes;
+}
+
+// Inserts `garbage` into the log at byte `offset`.
+void insert_into(const std::string& path, int64_t offset, const std::vector<uint8_t>& garbage) {
+  std::vector<uint8_t> bytes = read_file(path);
+  bytes.insert(bytes.begin() + offset, garbage.begin(), garbage.end());
+  write_file(path, bytes);
+}
+
+// The seq of every status message in the log, in order.
+std::vector<int64_t> logged_sequence(LogReader& reader) {
+  std::vector<int64_t> seqs;
+  LogEventView event;
+  while (reader.next(event)) {
+    liloc::status_t msg;
+    EXPECT_TRUE(decode(event, msg));
+    seqs.push_back(msg.header.seq);
+  }
+  return seqs;
+}
+
+std::vector<int64_t> iota(int64_t count) {
+  std::vector<int64_t> values(static_cast<size_t>(count));
+  for (int64_t i = 0; i < count; ++i) {
+    values[static_cast<size_t>(i)] = i;
+  }
+  return values;
+}
 
 // Publishes the sample of Msg over memq:// and checks that the decoded copy re-encodes to
 // the same bytes (LCM types have no operator==; equal encodings mean equal fields).
@@ -132,15 +199,18 @@ TEST(Transport, OversizedMessagesAreNotPublished) {
   EXPECT_TRUE(bus.publish_raw("BIG", big.data(), 2048));
 }
 
+// An IMU message from `robot` with the given seq, on "IMU".
+void send_imu(Transport& bus, const std::string& robot, int64_t seq) {
+  auto msg = bridge::make_sample<liloc::imu_t>(robot);
+  msg.header.seq = seq;
+  const auto bytes = encode(msg);
+  bus.publish_raw("IMU", bytes.data(), bytes.size());
+}
+
 TEST(Transport, SequenceGapsCountAsDropsPerSender) {
   Transport bus(memq());
   bus.subscribe<liloc::imu_t>("IMU", [](const liloc::imu_t&, const ReceiveInfo&) {});
-  auto send = [&](const std::string& robot, int64_t seq) {
-    auto msg = bridge::make_sample<liloc::imu_t>(robot);
-    msg.header.seq = seq;
-    const auto bytes = encode(msg);
-    bus.publish_raw("IMU", bytes.data(), bytes.size());
-  };
+  auto send = [&](const std::string& robot, int64_t seq) { send_imu(bus, robot, seq); };
   send("a", 0);
   send("b", 0);
   send("a", 1);
@@ -153,6 +223,83 @@ TEST(Transport, SequenceGapsCountAsDropsPerSender) {
   EXPECT_EQ(s.received, 7);
   EXPECT_EQ(s.dropped, 2);
   EXPECT_EQ(s.out_of_order, 2);
+}
+
+// A jump, a negative number or a restart far back re-anchors the sender: no absurd drop
+// counts, no overflow, no reorders reported for ever after.
+TEST(Transport, SequenceJumpsAndNegativeNumbersAreSenderRestarts) {
+  Transport bus(memq());
+  bus.subscribe<liloc::imu_t>("IMU", [](const liloc::imu_t&, const ReceiveInfo&) {});
+  constexpr int64_t kHuge = int64_t{1} << 62;
+  constexpr int64_t kMax = std::numeric_limits<int64_t>::max();
+  constexpr int64_t kMin = std::numeric_limits<int64_t>::min();
+  for (const int64_t seq : {int64_t{5}, kHuge, kHuge + 1, int64_t{-7}, int64_t{3}, int64_t{4}}) {
+    send_imu(bus, "a", seq);  // resets at 2^62 and -7
+  }
+  for (const int64_t seq : {int64_t{0}, kMax, kMin, int64_t{1}}) {
+    send_imu(bus, "b", seq);  // resets at the extremes
+  }
+  for (const int64_t seq : {int64_t{500000}, int64_t{3}, int64_t{4}, int64_t{6}}) {
+    send_imu(bus, "c", seq);  // restarted far back, then loses 5
+  }
+  bus.drain();
+  const ChannelStats s = bus.stats().at("IMU");
+  EXPECT_EQ(s.received, 14);
+  EXPECT_EQ(s.sequence_resets, 5);
+  EXPECT_EQ(s.dropped, 1);
+  EXPECT_EQ(s.out_of_order, 0);
+}
+
+// 10 000 senders on one subscription: it remembers max_senders of them, forgetting the
+// least recently heard; a sender heard all along keeps its sequence.
+TEST(Transport, PerSenderStateIsBoundedLeastRecentlyHeardFirst) {
+  TransportConfig config = memq();
+  ASSERT_EQ(config.max_senders, 256);
+  Transport bus(config);
+  bus.subscribe<liloc::imu_t>("IMU", [](const liloc::imu_t&, const ReceiveInfo&) {});
+  constexpr int kSenders = 10000;
+  int64_t steady_seq = 0;
+  for (int i = 0; i < kSenders; ++i) {
+    send_imu(bus, "s" + std::to_string(i), 10);
+    if (i % 100 == 0) {
+      send_imu(bus, "steady", steady_seq++);
+    }
+    bus.drain();
+  }
+  send_imu(bus, "steady", steady_seq + 1);  // one lost: still remembered
+  send_imu(bus, "s0", 15);                  // forgotten long ago: anchors again, no loss
+  bus.drain();
+  const ChannelStats s = bus.stats().at("IMU");
+  EXPECT_EQ(s.dropped, 1);
+  EXPECT_EQ(s.out_of_order, 0);
+  EXPECT_EQ(s.senders_forgotten, (kSenders + 1 - 256) + 1);
+
+  SequenceTracker tracker(config.max_sequence_gap, config.max_senders);
+  for (int i = 0; i < kSenders; ++i) {
+    tracker.track("s" + std::to_string(i), 0);
+  }
+  EXPECT_EQ(tracker.senders(), 256u);
+  EXPECT_EQ(tracker.counts().senders_forgotten, kSenders - 256);
+}
+
+TEST(TransportConfig, RefusesOutOfRangeSequenceBoundsNamingTheField) {
+  const auto refusal = [](const TransportConfig& config) {
+    try {
+      config.validate();
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  TransportConfig config;
+  EXPECT_EQ(refusal(config), "accepted");
+  config.max_sequence_gap = 0;
+  EXPECT_NE(refusal(config).find("max_sequence_gap"), std::string::npos);
+  config = {};
+  config.max_senders = 0;
+  EXPECT_NE(refusal(config).find("max_senders"), std::string::npos);
+  config.max_senders = 2000000000;
+  EXPECT_NE(refusal(config).find("max_senders"), std::string::npos);
 }
 
 TEST(Transport, HandlerExceptionsAreCountedAndDoNotStopDispatch) {
@@ -236,7 +383,9 @@ TEST(LogFile, WriteThenReplayDeliversEveryMessageInOrder) {
                                      });
   bus.subscribe<liloc::imu_t>(
       "r.IMU", [&](const liloc::imu_t&, const ReceiveInfo&) { order.push_back("I"); });
-  EXPECT_EQ(replay_log(path, bus, {0.0}), 100);
+  const ReplayResult replayed = replay_log(path, bus, {0.0});
+  EXPECT_EQ(replayed.published, 100);
+  EXPECT_FALSE(replayed.damage.any());
   ASSERT_EQ(order.size(), 100u);
   for (size_t i = 0; i < order.size(); ++i) {
     EXPECT_EQ(order[i], i % 2 == 0 ? "L" : "I");
@@ -259,7 +408,7 @@ TEST(LogFile, RealTimeReplayKeepsTheLoggedSpacing) {
   }
   Transport bus(memq());
   const auto start = std::chrono::steady_clock::now();
-  EXPECT_EQ(replay_log(path, bus, {1.0}), 5);
+  EXPECT_EQ(replay_log(path, bus, {1.0}).published, 5);
   // A lower bound only: real time never plays faster than logged.
   EXPECT_GE(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(195));
   std::remove(path.c_str());
@@ -276,7 +425,7 @@ TEST(LogFile, ReplayStopsWhenAsked) {
   }
   Transport bus(memq());
   int budget = 3;
-  EXPECT_EQ(replay_log(path, bus, {0.0}, [&] { return budget-- > 0; }), 3);
+  EXPECT_EQ(replay_log(path, bus, {0.0}, [&] { return budget-- > 0; }).published, 3);
   std::remove(path.c_str());
 }
 
@@ -353,6 +502,173 @@ TEST(LogFile, ReadsOneLogAndPublishesIntoAnother) {
   EXPECT_EQ(n, 20);
   std::remove(in.c_str());
   std::remove(out.c_str());
+}
+
+// Garbage in the middle of a log costs only the garbage: every event after it is read, and
+// the region is reported with its byte offset.
+TEST(LogReader, SkipsGarbageInTheMiddleAndReportsItsOffset) {
+  const std::string path = temp_path("liloc_garbage.lcmlog");
+  const int64_t event_bytes = write_status_log(path, 20);
+  const int64_t garbage_at = 10 * event_bytes;
+  insert_into(path, garbage_at, torn_write());
+  LogReader reader(path);
+  EXPECT_EQ(logged_sequence(reader), iota(20));
+  const LogDamage& damage = reader.damage();
+  EXPECT_EQ(damage.corrupt_regions, 1);
+  EXPECT_EQ(damage.bytes_skipped, static_cast<int64_t>(torn_write().size()));
+  ASSERT_EQ(damage.regions.size(), 1u);
+  EXPECT_EQ(damage.regions[0].offset, garbage_at);
+  EXPECT_EQ(damage.regions[0].bytes, static_cast<int64_t>(torn_write().size()));
+  EXPECT_FALSE(damage.truncated_end);
+  std::remove(path.c_str());
+}
+
+// A data length pointing past the end of the file (a flipped bit in a header) costs that
+// one event, not the rest of the log.
+TEST(LogReader, ACorruptEventHeaderCostsOnlyThatEvent) {
+  const std::string path = temp_path("liloc_bad_header.lcmlog");
+  const int64_t event_bytes = write_status_log(path, 20);
+  std::vector<uint8_t> bytes = read_file(path);
+  bytes[static_cast<size_t>(5 * event_bytes + 24)] = 0x01;  // data length + 16 MiB
+  write_file(path, bytes);
+  LogReader reader(path);
+  std::vector<int64_t> expected = iota(20);
+  expected.erase(expected.begin() + 5);
+  EXPECT_EQ(logged_sequence(reader), expected);
+  ASSERT_EQ(reader.damage().regions.size(), 1u);
+  EXPECT_EQ(reader.damage().regions[0].offset, 5 * event_bytes);
+  EXPECT_EQ(reader.damage().regions[0].bytes, event_bytes);
+  EXPECT_FALSE(reader.damage().truncated_end);
+  std::remove(path.c_str());
+}
+
+TEST(LogReader, ReportsATruncatedLastEvent) {
+  const std::string path = temp_path("liloc_truncated.lcmlog");
+  const int64_t event_bytes = write_status_log(path, 10);
+  std::vector<uint8_t> bytes = read_file(path);
+  bytes.resize(bytes.size() - 7);  // the recorder was killed mid-write
+  write_file(path, bytes);
+  LogReader reader(path);
+  EXPECT_EQ(logged_sequence(reader), iota(9));
+  const LogDamage& damage = reader.damage();
+  EXPECT_TRUE(damage.truncated_end);
+  EXPECT_EQ(damage.truncated_offset, 9 * event_bytes);
+  EXPECT_EQ(damage.bytes_skipped, event_bytes - 7);
+  EXPECT_EQ(damage.corrupt_regions, 0);
+  std::remove(path.c_str());
+}
+
+// What LogWriter writes (through lcm::LogFile, so lcm-logplayer plays it) reads back through
+// LogReader exactly as LCM's own reader sees it: channels, times and bytes, including
+// empty and multi-megabyte events.
+TEST(LogReader, ReadsWhatLogWriterWroteAsLcmDoes) {
+  const std::string path = temp_path("liloc_compat.lcmlog");
+  {
+    LogWriter writer(path);
+    auto scan = bridge::make_sample<liloc::lidar_scan_t>("r");
+    std::vector<uint8_t> big(5 << 20);
+    for (size_t i = 0; i < big.size(); ++i) {
+      big[i] = static_cast<uint8_t>(i * 31);
+    }
+    writer.write("r.LIDAR", 1000000, scan);
+    writer.write_raw("EMPTY", 1000001, nullptr, 0);
+    writer.write_raw("BIG", 1000002, big.data(), big.size());
+    writer.write_raw(std::string(63, 'c'), -5, big.data(), 100);
+    writer.write("r.LIDAR", 1000003, scan);
+  }
+  lcm::LogFile lcm_reader(path, "r");
+  LogReader reader(path);
+  LogEventView event;
+  int events = 0;
+  for (const lcm::LogEvent* expected = lcm_reader.readNextEvent(); expected != nullptr;
+       expected = lcm_reader.readNextEvent()) {
+    ASSERT_TRUE(reader.next(event));
+    EXPECT_EQ(event.channel, expected->channel);
+    EXPECT_EQ(event.utime, expected->timestamp);
+    ASSERT_EQ(event.size, static_cast<size_t>(expected->datalen));
+    EXPECT_EQ(std::memcmp(event.data, expected->data, event.size), 0);
+    ++events;
+  }
+  EXPECT_EQ(events, 5);
+  EXPECT_FALSE(reader.next(event));
+  EXPECT_FALSE(reader.damage().any());
+  std::remove(path.c_str());
+}
+
+TEST(LogFile, ReplayLogDeliversEverythingAfterGarbageAndReturnsTheDamage) {
+  const std::string path = temp_path("liloc_replay_garbage.lcmlog");
+  const int64_t event_bytes = write_status_log(path, 20);
+  insert_into(path, 3 * event_bytes, torn_write());
+  insert_into(path, 0, torn_write());
+  Transport bus(memq());
+  std::vector<int64_t> seqs;
+  bus.subscribe<liloc::status_t>(
+      "IN", [&](const liloc::status_t& m, const ReceiveInfo&) { seqs.push_back(m.header.seq); });
+  const ReplayResult replayed = replay_log(path, bus, {0.0});
+  EXPECT_EQ(replayed.published, 20);
+  EXPECT_EQ(seqs, iota(20));
+  EXPECT_EQ(replayed.damage.corrupt_regions, 2);
+  ASSERT_EQ(replayed.damage.regions.size(), 2u);
+  EXPECT_EQ(replayed.damage.regions[0].offset, 0);
+  EXPECT_EQ(replayed.damage.regions[1].offset,
+            static_cast<int64_t>(torn_write().size()) + 3 * event_bytes);
+  std::remove(path.c_str());
+}
+
+// A process reading a log as its bus (file://) gets every message after garbage, and can
+// report the damage.
+TEST(LogFile, TransportOnALogDeliversEverythingAfterGarbageAndReportsIt) {
+  const std::string path = temp_path("liloc_bus_garbage.lcmlog");
+  const int64_t event_bytes = write_status_log(path, 20);
+  insert_into(path, 10 * event_bytes, torn_write());
+  TransportConfig config;
+  config.url = "file://" + path + "?speed=0";
+  config.publish_url = "memq://";
+  Transport bus(config);
+  std::vector<int64_t> seqs;
+  bus.subscribe<liloc::status_t>(
+      "IN", [&](const liloc::status_t& m, const ReceiveInfo&) { seqs.push_back(m.header.seq); });
+  int rounds = 0;
+  while (bus.handle(100) >= 0 && ++rounds < 1000) {
+  }
+  EXPECT_EQ(seqs, iota(20));
+  EXPECT_EQ(bus.stats().at("IN").dropped, 0);
+  ASSERT_NE(bus.log_damage(), nullptr);
+  ASSERT_EQ(bus.log_damage()->regions.size(), 1u);
+  EXPECT_EQ(bus.log_damage()->regions[0].offset, 10 * event_bytes);
+  EXPECT_EQ(Transport(memq()).log_damage(), nullptr);
+  std::remove(path.c_str());
+}
+
+// speed=S plays the logged spacing divided by S; an option LCM does not know is refused
+// rather than ignored (a misspelt speed=0 would replay in real time).
+TEST(LogFile, TransportOnALogKeepsTheUrlsSpeedAndRefusesUnknownOptions) {
+  const std::string path = temp_path("liloc_bus_speed.lcmlog");
+  {
+    LogWriter writer(path);
+    auto msg = bridge::make_sample<liloc::status_t>("r");
+    for (int i = 0; i < 5; ++i) {
+      writer.write("IN", 1000000 + i * 250000, msg);  // 1 s of log
+    }
+  }
+  TransportConfig config;
+  config.url = "file://" + path + "?speed=4";
+  config.publish_url = "memq://";
+  Transport bus(config);
+  int received = 0;
+  bus.subscribe<liloc::status_t>("IN",
+                                 [&](const liloc::status_t&, const ReceiveInfo&) { ++received; });
+  const auto start = std::chrono::steady_clock::now();
+  int rounds = 0;
+  while (bus.handle(20) >= 0 && ++rounds < 1000) {
+  }
+  const auto elapsed = std::chrono::steady_clock::now() - start;
+  EXPECT_EQ(received, 5);
+  EXPECT_GE(elapsed, std::chrono::milliseconds(245));
+  EXPECT_LT(elapsed, std::chrono::milliseconds(900));  // real time would take 1 s
+  config.url = "file://" + path + "?sped=0";
+  EXPECT_THROW(Transport{config}, std::invalid_argument);
+  std::remove(path.c_str());
 }
 
 // Loopback multicast with a sized receive buffer: a 1 MB scan arrives whole. Bounded:

@@ -40,6 +40,7 @@
 #include "storage/map_store.hpp"
 #include "storage/submap_cloud_files.hpp"
 #include "system/system_config.hpp"
+#include "node/reply_route.hpp"
 #include "transport/channels.hpp"
 #include "transport/transport.hpp"
 
@@ -136,9 +137,10 @@ pid_t start_server(const std::string& server, const std::string& config, const s
 }
 
 // A stand-in for the server that answers every request at once with one small message
-// (no submap, no clouds), on the robot's reply_url: what LCM request and reply cost on
-// this machine at this moment, the floor under the server's latency. Runs until SIGINT.
-void run_echo_server(const std::string& url) {
+// (no submap, no clouds), on the robot's reply route as the server computes it: what LCM
+// request and reply cost on this machine at this moment, the floor under the server's
+// latency. Runs until SIGINT.
+void run_echo_server(const std::string& url, int reply_ports) {
   transport::TransportConfig config;
   config.url = url;
   transport::Transport bus(config);
@@ -147,11 +149,12 @@ void run_echo_server(const std::string& url) {
       transport::ChannelConfig{}.map_request,
       [&](const liloc::submap_request_t& msg, const transport::ReceiveInfo&) {
         transport::Transport* reply_bus = &bus;
-        if (!msg.reply_url.empty()) {
-          std::unique_ptr<transport::Transport>& b = reply_buses[msg.reply_url];
+        const std::string reply_url = node::reply_url(url, reply_ports, msg.header.robot_id);
+        if (reply_url != url) {
+          std::unique_ptr<transport::Transport>& b = reply_buses[reply_url];
           if (!b) {
             transport::TransportConfig reply_config;
-            reply_config.url = msg.reply_url;
+            reply_config.url = reply_url;
             b = std::make_unique<transport::Transport>(reply_config);
           }
           reply_bus = b.get();
@@ -201,14 +204,15 @@ struct RobotResult {
 // One robot: its own LCM instance, driving along the map's keyframe path from `start`.
 class Robot {
  public:
-  // reply_url: the robot's own group for replies (empty: replies come on the bus).
+  // reply_url: where the server sends its replies (node/reply_route.hpp): a port of the
+  // robot's own, or the bus.
   Robot(const std::string& robot_id, const std::string& url, const std::string& reply_url,
         const std::vector<Eigen::Vector3d>& path, size_t start)
-      : id_(robot_id), reply_url_(reply_url), path_(path), index_(start) {
+      : id_(robot_id), path_(path), index_(start) {
     transport::TransportConfig config;
     config.url = url;
     bus_ = std::make_unique<transport::Transport>(config);
-    if (!reply_url.empty()) {
+    if (reply_url != url) {
       config.url = reply_url;
       reply_bus_ = std::make_unique<transport::Transport>(config);
     }
@@ -281,7 +285,6 @@ class Robot {
     }
     q.position = path_[index_];
     q.include_clouds = clouds;
-    q.reply_url = reply_url_;
     pending_[q.request_id] = {Clock::now(), clouds, 0};
     liloc::submap_request_t msg = bridge::to_msg(q, 0);
     bus_->publish(transport::ChannelConfig{}.map_request, msg);
@@ -308,7 +311,6 @@ class Robot {
   transport::Transport& receiver() { return reply_bus_ ? *reply_bus_ : *bus_; }
 
   std::string id_;
-  std::string reply_url_;
   std::vector<Eigen::Vector3d> path_;
   size_t index_;
   std::unique_ptr<transport::Transport> bus_;        // requests (and replies without reply_url)
@@ -377,7 +379,7 @@ struct BenchOptions {
   std::string server_path = "build/bin/liloc_map_server";
   std::string config_path = "config/liloc.yaml";
   std::string url = "udpm://239.255.76.67:7691?ttl=0&recv_buf_size=4194304";
-  bool reply_groups = true;  // a multicast group per robot for its replies
+  bool reply_groups = true;  // replies on a port per robot (transport.reply_ports)
   int robots = 8;
   double rate_hz = 10.0;
   double duration_s = 60.0;
@@ -389,7 +391,7 @@ struct Run {
   size_t keyframes = 0;
   size_t submaps = 0;
   int robots = 0;
-  bool reply_groups = false;  // a multicast group per robot for its replies
+  bool reply_groups = false;  // replies on a port per robot (transport.reply_ports)
   double requests_per_s = 0.0;
   eval::LatencyStats all, position, clouds;
   int64_t lost = 0;
@@ -400,22 +402,6 @@ struct Run {
   double steal_percent = 0.0;  // of the machine's CPU time during the run
 };
 
-// `url` with its port replaced: "udpm://239.255.76.67:7691?ttl=0" -> ":7700?ttl=0".
-std::string with_port(const std::string& url, int port) {
-  const size_t query = url.find('?');
-  const size_t colon = url.rfind(':', query);
-  if (url.rfind("udpm://", 0) != 0 || colon == std::string::npos || colon < 7) {
-    throw std::invalid_argument("--lcm-url: expected udpm://ADDRESS:PORT..., got '" + url + "'");
-  }
-  return url.substr(0, colon + 1) + std::to_string(port) +
-         (query == std::string::npos ? "" : url.substr(query));
-}
-
-int port_of(const std::string& url) {
-  const size_t query = url.find('?');
-  return std::stoi(url.substr(url.rfind(':', query) + 1));
-}
-
 Run run_once(const BenchOptions& options, const std::string& map_dir, int copies, bool echo) {
   const std::string& url = options.url;
   storage::MapStore store(map_dir);
@@ -424,15 +410,21 @@ Run run_once(const BenchOptions& options, const std::string& map_dir, int copies
   for (const MapKeyframe& kf : map.keyframes) {
     path.push_back(kf.T_map_body.translation());
   }
-  const pid_t server = echo ? fork_child([&url] { run_echo_server(url); })
-                            : start_server(options.server_path, options.config_path, map_dir, url);
-  ServerStatusListener status(
-      url, load_config<SystemConfig>(options.config_path).map_server.status_channel);
+  // The server's config as given, but for where its replies go.
+  SystemConfig config = load_config<SystemConfig>(options.config_path);
+  config.transport.reply_ports = options.reply_groups ? config.transport.reply_ports : 0;
+  const std::string config_path = fs::temp_directory_path().string() + "/bench_mapserver_" +
+                                  std::to_string(::getpid()) + ".yaml";
+  std::ofstream(config_path) << dump_config(config) << "\n";
+  const int reply_ports = config.transport.reply_ports;
+  const pid_t server = echo ? fork_child([&] { run_echo_server(url, reply_ports); })
+                            : start_server(options.server_path, config_path, map_dir, url);
+  ServerStatusListener status(url, config.map_server.status_channel);
   std::vector<std::unique_ptr<Robot>> fleet;
   for (int r = 0; r < options.robots; ++r) {
-    // Each robot's replies on a group of its own (the next ports after the bus's).
-    const std::string reply_url = options.reply_groups ? with_port(url, port_of(url) + 1 + r) : "";
-    fleet.push_back(std::make_unique<Robot>("bench" + std::to_string(r), url, reply_url, path,
+    const std::string id = "bench" + std::to_string(r);
+    const std::string reply_url = node::reply_url(url, reply_ports, id);
+    fleet.push_back(std::make_unique<Robot>(id, url, reply_url, path,
                                             path.size() * static_cast<size_t>(r) / options.robots));
   }
   // The server is up when it answers.
@@ -468,6 +460,7 @@ Run run_once(const BenchOptions& options, const std::string& map_dir, int copies
   run.server_worst_cloud_ms = status.worst_cloud_ms();
   ::kill(server, SIGINT);
   ::waitpid(server, nullptr, 0);
+  fs::remove(config_path);
 
   run.map_copies = copies;
   run.keyframes = map.keyframes.size();
@@ -524,7 +517,7 @@ int main(int argc, char** argv) {
   cli.add_option("lcm-url", &options.url,
                  "LCM URL of the run (its own port; robots reply groups next)");
   cli.add_flag("shared-group", &shared_group,
-               "replies on the request bus, not on a multicast group per robot");
+               "replies on the request bus, not on a port per robot (transport.reply_ports 0)");
   cli.add_flag("echo-baseline", &echo_baseline,
                "before each run, the same robots against a stand-in that answers at once with "
                "a small message: the machine's floor");

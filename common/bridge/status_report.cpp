@@ -1,6 +1,7 @@
 #include "bridge/status_report.hpp"
 
 #include "bridge/lcm_conversions.hpp"
+#include "transport/log_file.hpp"
 
 namespace liloc::bridge {
 
@@ -12,8 +13,15 @@ void StatusReport::add_transport_counters(const transport::Transport& bus) {
     counters.emplace_back(channel + ".oversized", s.oversized);
     counters.emplace_back(channel + ".out_of_order", s.out_of_order);
     counters.emplace_back(channel + ".handler_errors", s.handler_errors);
+    counters.emplace_back(channel + ".sequence_resets", s.sequence_resets);
+    counters.emplace_back(channel + ".senders_forgotten", s.senders_forgotten);
   }
   counters.emplace_back("publish_errors", bus.publish_errors());
+  if (const transport::LogDamage* damage = bus.log_damage()) {
+    counters.emplace_back("log.corrupt_regions", damage->corrupt_regions);
+    counters.emplace_back("log.bytes_skipped", damage->bytes_skipped);
+    counters.emplace_back("log.truncated_end", damage->truncated_end ? 1 : 0);
+  }
 }
 
 liloc::status_t to_msg(const StatusReport& report, int64_t utime, const std::string& robot_id) {

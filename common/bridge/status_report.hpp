@@ -25,7 +25,9 @@ struct StatusReport {
   std::string message;
 
   // Adds "<channel>.received", ".dropped", ".decode_errors", ".oversized",
-  // ".out_of_order", ".handler_errors" for every subscription, and "publish_errors".
+  // ".out_of_order", ".handler_errors", ".sequence_resets", ".senders_forgotten" for every
+  // subscription, "publish_errors", and when the transport reads a log what its reader
+  // skipped: "log.corrupt_regions", "log.bytes_skipped", "log.truncated_end" (0 or 1).
   void add_transport_counters(const transport::Transport& bus);
 };
 

@@ -1,5 +1,6 @@
 #include "config/yaml_config.hpp"
 
+#include <filesystem>
 #include <fstream>
 
 namespace liloc {
@@ -16,9 +17,15 @@ std::string location(const std::string& file, const YAML::Node& node) {
 }  // namespace config_detail
 
 YAML::Node load_yaml_file(const std::string& path) {
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error)) {
+    throw ConfigError(path + ": is a directory, not a config file");
+  }
   std::ifstream stream(path);
   if (!stream) {
-    throw ConfigError(path + ": cannot open config file");
+    throw ConfigError(path + ": cannot open config file (" +
+                      (std::filesystem::exists(path, error) ? "not readable" : "no such file") +
+                      ")");
   }
   try {
     return YAML::Load(stream);

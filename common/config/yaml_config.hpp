@@ -10,14 +10,15 @@
 //     void validate() const;  // optional: throw std::invalid_argument on a bad value
 //   };
 //
-// A key missing from the file keeps its default. An unknown (for example misspelled)
-// key, a value of the wrong type or a value that validate() refuses is a ConfigError
-// naming the file, the line and the full key.
+// A key missing from the file keeps its default. An unknown (for example misspelled) or
+// repeated key, a value of the wrong type, a number that is not finite, or a value that
+// validate() refuses is a ConfigError naming the file, the line and the full key.
 
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/Core>
 #include <array>
+#include <cmath>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -97,10 +98,16 @@ class YamlReader {
   // not an unknown key, and its contents are that process's to check.
   void allow(const char* key) { visited_.insert(key); }
 
-  // Throws for keys in the map that the struct did not visit.
+  // Throws for keys in the map that the struct did not visit, and for keys given twice
+  // (YAML keeps both, and the first would silently win).
   void reject_unknown_keys() const {
+    std::set<std::string> seen;
     for (const auto& entry : node_) {
       const std::string key = entry.first.as<std::string>();
+      if (!seen.insert(key).second) {
+        throw ConfigError(config_detail::location(file_, entry.first) + ": key '" + join(key) +
+                          "' is given twice");
+      }
       if (visited_.count(key) == 0) {
         throw ConfigError(config_detail::location(file_, entry.first) + ": unknown key '" +
                           join(key) + "'" + known_keys());
@@ -152,6 +159,11 @@ class YamlReader {
         value = node.as<T>();
       } catch (const YAML::Exception&) {
         fail(node, key, std::string("must be ") + type_name<T>() + ", got '" + node.Scalar() + "'");
+      }
+      if constexpr (std::is_floating_point_v<T>) {
+        if (!std::isfinite(value)) {
+          fail(node, key, "must be a finite number, got '" + node.Scalar() + "'");
+        }
       }
     }
   }
@@ -242,6 +254,17 @@ std::string dump_config(const Config& config) {
   YAML::Emitter out;
   YamlWriter writer(out);
   writer.write(config);
+  return out.c_str();
+}
+
+// As a file that load_config(path, section) reads back: the values under `section`.
+template <class Config>
+std::string dump_config(const Config& config, const std::string& section) {
+  YAML::Emitter out;
+  YamlWriter writer(out);
+  out << YAML::BeginMap << YAML::Key << section << YAML::Value;
+  writer.write(config);
+  out << YAML::EndMap;
   return out.c_str();
 }
 

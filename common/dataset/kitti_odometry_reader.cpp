@@ -119,7 +119,29 @@ bool KittiOdometryReader::read_scan(LidarScan& scan) {
   }
   char name[16];
   std::snprintf(name, sizeof(name), "%06zu.bin", next_frame_);
-  const std::string path = sequence_dir_ + "/velodyne/" + name;
+  int64_t dropped = 0;
+  scan.points = read_kitti_bin(sequence_dir_ + "/velodyne/" + name, &dropped);
+  mutable_stats().dropped_non_finite_points += dropped;
+
+  const double period_s = config_.scan_period_s;
+  const bool time_from_azimuth = config_.point_time == "azimuth";
+  const double frame_time_s = config_.time_origin_s + frame_times_s_[next_frame_];
+  scan.utime_us = static_cast<int64_t>(std::llround((frame_time_s - period_s / 2) * 1e6));
+  scan.scan_period_s = static_cast<float>(period_s);
+  for (LidarPoint& p : scan.points) {
+    if (time_from_azimuth) {
+      // Clockwise from behind: azimuth 180 deg at the start, 0 (forward) at the middle.
+      const double azimuth = std::atan2(p.position_m.y(), p.position_m.x());
+      p.time_offset_s = static_cast<float>(period_s * (M_PI - azimuth) / (2 * M_PI));
+    } else {
+      p.time_offset_s = static_cast<float>(period_s / 2);
+    }
+  }
+  ++next_frame_;
+  return true;
+}
+
+std::vector<LidarPoint> read_kitti_bin(const std::string& path, int64_t* dropped_non_finite) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     throw DatasetError::in_file(path, "cannot open");
@@ -135,33 +157,21 @@ bool KittiOdometryReader::read_scan(LidarScan& scan) {
   if (!in.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(size))) {
     throw DatasetError::at_byte(path, static_cast<uint64_t>(in.gcount()), "read failed");
   }
-
-  const double period_s = config_.scan_period_s;
-  const bool time_from_azimuth = config_.point_time == "azimuth";
-  const double frame_time_s = config_.time_origin_s + frame_times_s_[next_frame_];
-  scan.utime_us = static_cast<int64_t>(std::llround((frame_time_s - period_s / 2) * 1e6));
-  scan.scan_period_s = static_cast<float>(period_s);
-  scan.points.clear();
-  scan.points.reserve(values.size() / 4);
+  std::vector<LidarPoint> points;
+  points.reserve(values.size() / 4);
   for (size_t i = 0; i + 3 < values.size(); i += 4) {
     LidarPoint p;
     p.position_m = Eigen::Vector3f(values[i], values[i + 1], values[i + 2]);
     p.intensity = values[i + 3];
     if (!p.position_m.allFinite() || !std::isfinite(p.intensity)) {
-      ++mutable_stats().dropped_non_finite_points;
+      if (dropped_non_finite != nullptr) {
+        ++*dropped_non_finite;
+      }
       continue;
     }
-    if (time_from_azimuth) {
-      // Clockwise from behind: azimuth 180 deg at the start, 0 (forward) at the middle.
-      const double azimuth = std::atan2(p.position_m.y(), p.position_m.x());
-      p.time_offset_s = static_cast<float>(period_s * (M_PI - azimuth) / (2 * M_PI));
-    } else {
-      p.time_offset_s = static_cast<float>(period_s / 2);
-    }
-    scan.points.push_back(p);
+    points.push_back(p);
   }
-  ++next_frame_;
-  return true;
+  return points;
 }
 
 }  // namespace liloc::dataset

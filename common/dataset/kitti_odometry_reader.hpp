@@ -66,4 +66,9 @@ class KittiOdometryReader : public SensorDatasetReader {
   size_t next_frame_ = 0;
 };
 
+// The points of one velodyne .bin file (float32 x, y, z, reflectance each), their times
+// unset; non-finite points are dropped and counted. Throws DatasetError naming the file.
+std::vector<LidarPoint> read_kitti_bin(const std::string& path,
+                                       int64_t* dropped_non_finite = nullptr);
+
 }  // namespace liloc::dataset

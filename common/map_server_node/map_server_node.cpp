@@ -6,8 +6,11 @@
 #include <optional>
 
 #include "app/program.hpp"
+#include "app/rate_limit.hpp"
 #include "bridge/map_conversions.hpp"
 #include "bridge/status_report.hpp"
+#include "map/map_validation.hpp"
+#include "node/reply_route.hpp"
 
 namespace liloc {
 namespace {
@@ -22,8 +25,9 @@ void keep_worst(std::atomic<double>& worst, double ms) {
 }  // namespace
 
 void MapServerConfig::validate() const {
-  if (!(cache_mb > 0.0) || !(info_period_s > 0.0)) {
-    throw std::invalid_argument("cache_mb and info_period_s must be positive");
+  if (!(cache_mb > 0.0 && cache_mb <= 1e6) || !(info_period_s > 0.0 && info_period_s <= 3600.0)) {
+    throw std::invalid_argument(
+        "cache_mb must be in (0, 1e6] (a terabyte) and info_period_s in (0, 3600]");
   }
   if (keep_versions < 1) {
     throw std::invalid_argument("keep_versions must be at least 1");
@@ -61,6 +65,14 @@ MapServerNode::MapServerNode(transport::Transport& bus, const MapServerNodeConfi
       config.channels.map_request,
       [this](const liloc::submap_request_t& msg, const transport::ReceiveInfo& info) {
         SubmapQuery query = bridge::from_msg(msg);
+        if (!is_valid_name(query.robot_id)) {
+          // Its reply channel and port come from its id: a malformed one names neither.
+          if (should_log(++requests_refused_)) {
+            spdlog::warn("request from robot '{}' refused: not a valid robot id ({} so far)",
+                         printable_excerpt(query.robot_id), requests_refused_);
+          }
+          return;
+        }
         if (query.include_clouds) {
           replies_.submit({std::move(query), msg.header.utime, info.recv_utime});
         } else {
@@ -106,7 +118,7 @@ void MapServerNode::on_update(const liloc::map_update_t& msg) {
     // Reply workers plan under this lock meanwhile; a merge changes the map.
     std::lock_guard<std::mutex> lock(service_mutex_);
     outcome = part ? service_.receive(std::move(*part), node::wall_clock_us())
-                   : service_.reject(msg.header.robot_id, msg.update_id, malformed);
+                   : service_.reject(msg.header.robot_id, msg.session_id, msg.update_id, malformed);
     if (outcome.status == UpdateOutcome::Status::kMerged) {
       merged = service_.take_unsaved();
     }
@@ -179,15 +191,7 @@ bool MapServerNode::finish() {
 }
 
 void MapServerNode::reply(const SubmapQuery& query, int64_t request_utime, int64_t received_us) {
-  transport::Transport* bus = reply_bus(query.reply_url);
-  if (bus == nullptr) {
-    // Logged the first time and then every 100th, not at every request of a robot.
-    if (refused_reply_urls_++ % 100 == 0) {
-      spdlog::warn("request {} of {}: reply_url '{}' refused (udpm:// only, at most {} URLs)",
-                   query.request_id, query.robot_id, query.reply_url, kMaxReplyBuses);
-    }
-    return;
-  }
+  transport::Transport& bus = reply_bus(query.robot_id);
   MapService::ReplyPlan plan;
   {
     std::lock_guard<std::mutex> lock(service_mutex_);
@@ -201,7 +205,7 @@ void MapServerNode::reply(const SubmapQuery& query, int64_t request_utime, int64
   const std::string channel = transport::robot_channel(query.robot_id, config_.channels.submap);
   for (const SubmapReplyPart& part : parts) {
     liloc::submap_t message = bridge::to_msg(part, request_utime);
-    bus->publish(channel, message);
+    bus.publish(channel, message);
   }
   // The worst since the last status, from arrival to the last message sent: what the
   // server adds to a robot's wait, queueing included.
@@ -209,28 +213,22 @@ void MapServerNode::reply(const SubmapQuery& query, int64_t request_utime, int64
              static_cast<double>(node::wall_clock_us() - received_us) / 1000.0);
 }
 
-transport::Transport* MapServerNode::reply_bus(const std::string& url) {
-  if (url.empty()) {
-    return &bus_;
+transport::Transport& MapServerNode::reply_bus(const std::string& robot_id) {
+  // The server picks the destination from its config and the robot id (node/reply_route);
+  // a request's reply_url field is ignored, so no wire field chooses where it sends.
+  const std::string url = node::reply_url(bus_.config().url, bus_.config().reply_ports, robot_id);
+  if (url == bus_.config().url) {
+    return bus_;
   }
   std::lock_guard<std::mutex> lock(reply_buses_mutex_);
-  const auto it = reply_buses_.find(url);
-  if (it != reply_buses_.end()) {
-    return it->second.get();
+  std::unique_ptr<transport::Transport>& bus = reply_buses_[url];  // reply_ports at most
+  if (!bus) {
+    transport::TransportConfig reply_config = bus_.config();
+    reply_config.url = url;
+    reply_config.publish_url.clear();
+    bus = std::make_unique<transport::Transport>(reply_config);
   }
-  if (url.rfind("udpm://", 0) != 0 || reply_buses_.size() >= kMaxReplyBuses) {
-    return nullptr;
-  }
-  transport::TransportConfig reply_config = bus_.config();
-  reply_config.url = url;
-  reply_config.publish_url.clear();
-  try {
-    return reply_buses_.emplace(url, std::make_unique<transport::Transport>(reply_config))
-        .first->second.get();
-  } catch (const std::exception& e) {
-    spdlog::warn("reply_url '{}': {}", url, e.what());
-    return nullptr;
-  }
+  return *bus;
 }
 
 void MapServerNode::start_filling(const MapData& map) {
@@ -277,6 +275,10 @@ void MapServerNode::publish_info(int64_t now_us) {
                        {"empty_replies", c.empty_replies},
                        {"updates_merged", c.updates_merged},
                        {"updates_rejected", c.updates_rejected},
+                       {"updates_refused_robot", c.updates_refused_robot},
+                       {"updates_refused_busy", c.updates_refused_busy},
+                       {"updates_repeated", c.updates_repeated},
+                       {"updates_pending", static_cast<int64_t>(service_.pending_updates())},
                        {"updates_expired", c.updates_expired},
                        {"keyframes_merged", c.keyframes_merged},
                        {"submap_cloud_store_errors", service_.store_errors()}};
@@ -291,6 +293,7 @@ void MapServerNode::publish_info(int64_t now_us) {
       {"save_commit", static_cast<float>(last_save_.commit_ms)},
       {"save_total", static_cast<float>(last_save_.total_ms)}};
   const std::vector<std::pair<std::string, int64_t>> more = {
+      {"requests_refused", requests_refused_},
       {"map_version", disk_version_},
       {"unsaved_keyframes", saver_.unsaved_keyframes()},
       {"saves_failed", saves_failed_},
@@ -298,7 +301,6 @@ void MapServerNode::publish_info(int64_t now_us) {
       {"cache_bytes", static_cast<int64_t>(cache_.bytes())},
       {"cache_hits", cache_.hits()},
       {"cache_misses", cache_.misses()},
-      {"refused_reply_urls", refused_reply_urls_.load()},
       {"submap_clouds_computed", submap_clouds_computed_.load()},
       {"submap_cloud_files_damaged", submap_files_.damaged()}};
   report.counters.insert(report.counters.end(), more.begin(), more.end());

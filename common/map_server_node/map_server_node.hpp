@@ -100,9 +100,8 @@ class MapServerNode final : public node::Node {
   // Answers one request: planned under the service lock; clouds gathered, encoded and
   // sent without it, so that other requests and updates go on meanwhile.
   void reply(const SubmapQuery& query, int64_t request_utime, int64_t received_us);
-  // The bus a reply goes to: the robot's own (reply_url) if it named one, else the
-  // request's. Null for a URL that is not udpm://, or beyond kMaxReplyBuses of them.
-  transport::Transport* reply_bus(const std::string& url);
+  // The bus a reply to `robot_id` goes to (node/reply_route.hpp).
+  transport::Transport& reply_bus(const std::string& robot_id);
   bool deduplicating() const { return config_.map_server.service.reply_voxel_m > 0.0; }
   void start_filling(const MapData& map);
   void warm_cache(const MapData& map);
@@ -117,10 +116,10 @@ class MapServerNode final : public node::Node {
   mutable std::mutex service_mutex_;
   MapService service_;
   MapSaver saver_;
-  static constexpr size_t kMaxReplyBuses = 64;
-  std::mutex reply_buses_mutex_;                                              // guards reply_buses_
-  std::map<std::string, std::unique_ptr<transport::Transport>> reply_buses_;  // by URL
-  std::atomic<int64_t> refused_reply_urls_{0};
+  std::mutex reply_buses_mutex_;  // guards reply_buses_
+  // By URL: at most transport.reply_ports of them, whatever robots ask.
+  std::map<std::string, std::unique_ptr<transport::Transport>> reply_buses_;
+  int64_t requests_refused_ = 0;  // malformed robot ids (message thread only)
   int64_t disk_version_ = 0;
   int64_t saves_failed_ = 0;
   int64_t keyframes_dropped_ = 0;  // refused by a save: never on disk

@@ -11,8 +11,13 @@ namespace liloc {
 void MapServiceConfig::validate() const {
   if (max_submaps_per_reply < 1 || max_chunk_points < 1 || max_update_keyframes < 1 ||
       max_update_points < 1 || !(update_timeout_s > 0) || reply_cache_submaps < 1 ||
-      max_finished_updates < 1) {
+      max_finished_updates < 1 || max_pending_updates < 1 || max_pending_points < 1) {
     throw std::invalid_argument("limits and timeout must be positive");
+  }
+  for (const std::string& robot : allowed_robots) {
+    if (!is_valid_name(robot)) {
+      throw std::invalid_argument("allowed robot '" + robot + "' is not a valid name");
+    }
   }
   if (!(reply_voxel_m >= 0.0)) {
     throw std::invalid_argument("reply_voxel_m must be >= 0");
@@ -195,11 +200,6 @@ void MapService::remember(const ReplyPlan& reply) {
 }
 
 std::optional<std::string> MapService::validate(const MapUpdatePart& part) const {
-  if (!config_.allowed_robots.empty() &&
-      std::find(config_.allowed_robots.begin(), config_.allowed_robots.end(), part.robot_id) ==
-          config_.allowed_robots.end()) {
-    return "robot '" + part.robot_id + "' may not update the map";
-  }
   if (part.num_chunks < 1 || part.chunk_index < 0 || part.chunk_index >= part.num_chunks) {
     return "chunk " + std::to_string(part.chunk_index) + " of " + std::to_string(part.num_chunks);
   }
@@ -215,21 +215,26 @@ std::optional<std::string> MapService::validate(const MapUpdatePart& part) const
   return std::nullopt;
 }
 
-UpdateOutcome MapService::reject(const std::string& robot_id, int64_t update_id,
-                                 const std::string& reason) {
-  const UpdateKey key(robot_id, update_id);
+UpdateOutcome MapService::refuse(int64_t& counter, const std::string& reason) {
+  ++counter;
   UpdateOutcome outcome;
-  if (finished_.count(key) != 0) {
-    return outcome;  // a repeat of a finished update: nothing to do
-  }
-  finish(key);
-  ++counters_.updates_rejected;
   outcome.status = UpdateOutcome::Status::kRejected;
   outcome.reason = reason;
   return outcome;
 }
 
-void MapService::finish(const UpdateKey& key) {
+UpdateOutcome MapService::reject(const std::string& robot_id, const std::string& session_id,
+                                 int64_t update_id, const std::string& reason) {
+  const UpdateKey key(robot_id, session_id, update_id);
+  if (finished_.count(key) != 0) {
+    ++counters_.updates_repeated;
+    return {};  // a part of a merged update: nothing to do
+  }
+  pending_.erase(key);
+  return refuse(counters_.updates_rejected, reason);
+}
+
+void MapService::remember_merged(const UpdateKey& key) {
   pending_.erase(key);
   if (finished_.insert(key).second) {
     finished_order_.push_back(key);
@@ -241,41 +246,62 @@ void MapService::finish(const UpdateKey& key) {
 }
 
 UpdateOutcome MapService::receive(MapUpdatePart part, int64_t now_us) {
-  UpdateOutcome outcome;
-  const UpdateKey key(part.robot_id, part.update_id);
+  const UpdateKey key(part.robot_id, part.session_id, part.update_id);
   if (finished_.count(key) != 0) {
-    return outcome;  // a repeat of a finished update: nothing to do
+    ++counters_.updates_repeated;
+    return {};  // a part of a merged update: nothing to do
   }
-  const auto reject = [&](const std::string& reason) {
-    return this->reject(part.robot_id, part.update_id, reason);
-  };
+  if (std::find(config_.allowed_robots.begin(), config_.allowed_robots.end(), part.robot_id) ==
+      config_.allowed_robots.end()) {
+    return refuse(counters_.updates_refused_robot,
+                  "robot '" + printable_excerpt(part.robot_id) +
+                      "' may not update the map (map_server.service.allowed_robots)");
+  }
   if (const std::optional<std::string> problem = validate(part)) {
-    return reject(*problem);
+    return reject(part.robot_id, part.session_id, part.update_id, *problem);
+  }
+  int64_t points = 0;
+  for (const UpdateKeyframe& kf : part.keyframes) {
+    points += static_cast<int64_t>(kf.cloud_body.size());
+  }
+  if (pending_.count(key) == 0 && part.num_chunks > 1) {
+    int64_t pending_points = 0;
+    for (const auto& entry : pending_) {
+      pending_points += entry.second.points;
+    }
+    if (static_cast<int>(pending_.size()) >= config_.max_pending_updates ||
+        pending_points + points > config_.max_pending_points) {
+      return refuse(counters_.updates_refused_busy,
+                    std::to_string(pending_.size()) + " updates with " +
+                        std::to_string(pending_points) +
+                        " points already wait for their chunks (max_pending_updates, "
+                        "max_pending_points)");
+    }
   }
   PendingUpdate& update = pending_[key];
   if (update.chunks.empty()) {
-    update.session_id = part.session_id;
     update.num_chunks = part.num_chunks;
     update.first_seen_us = now_us;
   } else if (update.num_chunks != part.num_chunks) {
-    return reject("parts disagree on the number of chunks");
+    return reject(part.robot_id, part.session_id, part.update_id,
+                  "parts disagree on the number of chunks");
   }
-  for (const UpdateKeyframe& kf : part.keyframes) {
-    update.points += static_cast<int64_t>(kf.cloud_body.size());
-  }
+  update.points += points;
   if (update.points > config_.max_update_points) {
-    return reject(std::to_string(update.points) + " points, more than " +
-                  std::to_string(config_.max_update_points));
+    return reject(part.robot_id, part.session_id, part.update_id,
+                  std::to_string(update.points) + " points, more than " +
+                      std::to_string(config_.max_update_points));
   }
   update.chunks[part.chunk_index] = std::move(part.keyframes);
   if (static_cast<int>(update.chunks.size()) < update.num_chunks) {
-    return outcome;
+    return {};
   }
-  outcome = merge(key.first, update);
+  const auto& [robot, session, id] = key;
+  UpdateOutcome outcome = merge(robot, session, update);
   if (outcome.status == UpdateOutcome::Status::kRejected) {
-    return reject(outcome.reason);
+    return reject(robot, session, id, outcome.reason);
   }
-  finish(key);
+  remember_merged(key);
   return outcome;
 }
 
@@ -291,7 +317,8 @@ void MapService::expire(int64_t now_us) {
   }
 }
 
-UpdateOutcome MapService::merge(const std::string& robot_id, PendingUpdate& update) {
+UpdateOutcome MapService::merge(const std::string& robot_id, const std::string& session_id,
+                                PendingUpdate& update) {
   UpdateOutcome outcome;
   outcome.status = UpdateOutcome::Status::kRejected;
   int64_t next_keyframe_id = map_.keyframes.empty() ? 0 : map_.keyframes.back().id + 1;
@@ -302,7 +329,7 @@ UpdateOutcome MapService::merge(const std::string& robot_id, PendingUpdate& upda
       MapKeyframe m;
       m.id = next_keyframe_id++;
       m.utime_us = kf.utime_us;
-      m.session = update.session_id.empty() ? robot_id : update.session_id;
+      m.session = session_id.empty() ? robot_id : session_id;
       m.T_map_body = kf.T_map_body;
       m.fitness_m = kf.fitness_m;
       delta.keyframes.push_back(m);

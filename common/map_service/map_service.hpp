@@ -14,6 +14,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "map/map_types.hpp"
@@ -32,13 +33,19 @@ struct MapServiceConfig {
   // keyframe clouds, which overlap ~3x). The deduplicated clouds of a submap are computed
   // once and kept in the SubmapCloudStore given to the service, if any.
   double reply_voxel_m = 0.3;
-  int reply_cache_submaps = 64;             // submaps' reply clouds kept in memory (~0.45 MB each)
-  std::vector<std::string> allowed_robots;  // updates from other robots are refused; empty: any
+  int reply_cache_submaps = 64;  // submaps' reply clouds kept in memory (~0.45 MB each)
+  // Updates are accepted from these robots only; others are refused and counted (an empty
+  // list refuses every update: a map grows only from robots the operator named).
+  std::vector<std::string> allowed_robots;
   int max_update_keyframes = 1000;
-  int64_t max_update_points = 20000000;
-  double update_timeout_s = 30.0;  // an update still missing chunks after this is dropped
-  // Merged or rejected updates remembered, so that a repeated part is ignored; the oldest
-  // are forgotten beyond this.
+  int64_t max_update_points = 20000000;  // in one update
+  // Updates still missing chunks: at most this many and this many points in all (beyond,
+  // new ones are refused until these complete or expire), each for update_timeout_s.
+  int max_pending_updates = 8;
+  int64_t max_pending_points = 5000000;
+  double update_timeout_s = 30.0;
+  // Merged updates remembered, so that a repeated part is ignored; the oldest are
+  // forgotten beyond this.
   int max_finished_updates = 10000;
 
   template <class V>
@@ -50,6 +57,8 @@ struct MapServiceConfig {
     v("allowed_robots", allowed_robots);
     v("max_update_keyframes", max_update_keyframes);
     v("max_update_points", max_update_points);
+    v("max_pending_updates", max_pending_updates);
+    v("max_pending_points", max_pending_points);
     v("update_timeout_s", update_timeout_s);
     v("max_finished_updates", max_finished_updates);
   }
@@ -113,7 +122,10 @@ struct MapServiceCounters {
   int64_t requests = 0;
   int64_t empty_replies = 0;
   int64_t updates_merged = 0;
-  int64_t updates_rejected = 0;
+  int64_t updates_rejected = 0;       // malformed, or the map's rules refuse it
+  int64_t updates_refused_robot = 0;  // from a robot not in allowed_robots
+  int64_t updates_refused_busy = 0;   // the pending bounds were reached
+  int64_t updates_repeated = 0;       // a part of an update merged before: ignored
   int64_t updates_expired = 0;
   int64_t keyframes_merged = 0;
 };
@@ -154,12 +166,16 @@ class MapService {
 
   // Buffers a part of an update; once all parts of it arrived and the map with it follows
   // the rules of map/map_validation.hpp (the rules a save checks), merges it into the
-  // map. Malformed parts or updates are rejected with a reason.
+  // map. Malformed parts or updates are rejected with a reason. An update is known by
+  // (robot, session, update id), and only merged ones are remembered: a rejected update
+  // (a spoof, a robot's bad first try) never shadows a later one with the same ids, and a
+  // robot that restarts its update ids in a new session is not mistaken for a repeat.
   UpdateOutcome receive(MapUpdatePart part, int64_t now_us);
   // An update part the process could not even convert (a non-finite pose, offsets that
   // do not fit its cloud): the whole update is rejected and counted, like one that fails
-  // validation (unless it was already merged or rejected: then nothing happens).
-  UpdateOutcome reject(const std::string& robot_id, int64_t update_id, const std::string& reason);
+  // validation (nothing happens if it was merged before).
+  UpdateOutcome reject(const std::string& robot_id, const std::string& session_id,
+                       int64_t update_id, const std::string& reason);
   // Drops updates still incomplete after update_timeout_s (counted as expired).
   void expire(int64_t now_us);
 
@@ -172,22 +188,25 @@ class MapService {
   // storage from then on and replies name the saved version.
   MapDelta take_unsaved();
   void saved(int64_t version, const std::vector<int64_t>& keyframe_ids);
-  // Updates merged or rejected that are still remembered (at most max_finished_updates).
+  // Merged updates still remembered (at most max_finished_updates), and updates waiting
+  // for chunks (at most max_pending_updates).
   size_t finished_updates() const { return finished_.size(); }
+  size_t pending_updates() const { return pending_.size(); }
 
  private:
-  using UpdateKey = std::pair<std::string, int64_t>;  // (robot, update id)
+  using UpdateKey = std::tuple<std::string, std::string, int64_t>;  // robot, session, update
   struct PendingUpdate {
-    std::string session_id;
     int num_chunks = 0;
     int64_t first_seen_us = 0;
     int64_t points = 0;
     std::map<int, std::vector<UpdateKeyframe>> chunks;
   };
   std::optional<std::string> validate(const MapUpdatePart& part) const;
-  UpdateOutcome merge(const std::string& robot_id, PendingUpdate& update);
-  // The update is done (merged or rejected): repeats of it are ignored from now on.
-  void finish(const UpdateKey& key);
+  UpdateOutcome merge(const std::string& robot_id, const std::string& session_id,
+                      PendingUpdate& update);
+  UpdateOutcome refuse(int64_t& counter, const std::string& reason);
+  // The update merged: repeats of it are ignored from now on.
+  void remember_merged(const UpdateKey& key);
   // The clouds a reply sends for a submap: stored, or else computed and stored.
   std::shared_ptr<const SubmapClouds> reply_clouds(const ReplyPlan::Item& item) const;
 
@@ -200,7 +219,7 @@ class MapService {
   SubmapDatabase database_;
   MapServiceCounters counters_;
   std::map<UpdateKey, PendingUpdate> pending_;
-  std::set<UpdateKey> finished_;          // merged or rejected: repeats ignored
+  std::set<UpdateKey> finished_;          // merged: repeats ignored
   std::deque<UpdateKey> finished_order_;  // oldest first, to forget beyond the bound
   std::map<int64_t, std::shared_ptr<const PointCloud>> merged_clouds_;  // served until saved
   MapDelta unsaved_;  // merged since the last take_unsaved()

@@ -1,13 +1,32 @@
 #include "mapping/central_session_builder.hpp"
 
 #include <cmath>
+#include <stdexcept>
+
+#include "map/map_validation.hpp"
 
 namespace liloc {
+
+void CentralSessionConfig::validate() const {
+  if (!is_valid_name(session)) {
+    throw std::invalid_argument(
+        "session '" + session +
+        "' must be 1-64 characters without ',', '\"' or control characters");
+  }
+  if (!(odometry_translation_sigma_m > 0) || !(odometry_rotation_sigma_rad > 0) ||
+      !(odometry_drift_fraction >= 0)) {
+    throw std::invalid_argument(
+        "odometry sigmas must be positive and odometry_drift_fraction not negative");
+  }
+  loops.validate();
+  graph.validate();
+}
 
 CentralSessionBuilder::CentralSessionBuilder(const CentralSessionConfig& config,
                                              const SubmapConfig& submaps,
                                              const PolarDescriptorConfig& descriptor)
     : config_(config), submaps_(submaps), loops_(config.loops, descriptor) {
+  config_.validate();
   submaps_.validate();
 }
 

@@ -40,6 +40,7 @@ struct CentralSessionConfig {
     v("loops", loops);
     v("graph", graph);
   }
+  void validate() const;
 };
 
 struct CentralSessionReport {

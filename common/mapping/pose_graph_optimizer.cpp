@@ -12,6 +12,13 @@
 
 namespace liloc {
 
+void PoseGraphConfig::validate() const {
+  if (max_iterations < 1 || !(loop_loss_scale > 0) || threads < 1 || threads > 64) {
+    throw std::invalid_argument(
+        "max_iterations must be at least 1, loop_loss_scale positive, threads 1 to 64");
+  }
+}
+
 PoseGraphResult optimize_pose_graph(std::vector<MapKeyframe>& keyframes,
                                     const std::vector<PoseGraphEdge>& edges,
                                     const PoseGraphConfig& config) {

@@ -21,6 +21,7 @@ struct PoseGraphConfig {
     v("loop_loss_scale", loop_loss_scale);
     v("threads", threads);
   }
+  void validate() const;
 };
 
 struct PoseGraphResult {

@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "app/program.hpp"
+#include "transport/log_file.hpp"
 
 namespace liloc::node {
 
@@ -34,6 +35,12 @@ bool run_nodes(transport::Transport& transport, const std::vector<Node*>& nodes,
   }
   spdlog::debug("{}: finishing", end_of_input ? "end of input" : "shutdown");
   bool ok = true;
+  if (const transport::LogDamage* damage = transport.log_damage(); damage && damage->any()) {
+    spdlog::error("the input log was damaged: {} corrupt region(s), {} bytes skipped{}",
+                  damage->corrupt_regions, damage->bytes_skipped,
+                  damage->truncated_end ? ", its last event truncated" : "");
+    ok = false;
+  }
   for (Node* n : nodes) {
     if (!n->finish()) {
       spdlog::error("{}: finished with data lost (see above)", n->name());

@@ -37,7 +37,8 @@ int64_t wall_clock_us();
 
 // Dispatches the transport's messages to the nodes' subscriptions and ticks the nodes until
 // shutdown is requested (SIGINT, SIGTERM: app/program.hpp) or the input ends (a file://
-// log), then finishes them in order. True if every node finished without loss.
+// log), then finishes them in order. True if every node finished without loss and the
+// input log, if any, was undamaged.
 bool run_nodes(transport::Transport& transport, const std::vector<Node*>& nodes,
                const RunConfig& config = {});
 

@@ -68,21 +68,51 @@ void OdometryConfig::validate() const {
   imu.validate();
   map.validate();
   registration.validate();
-  if (min_range_m < 0 || max_range_m <= min_range_m) {
+  if (!(min_range_m >= 0) || !(max_range_m > min_range_m)) {
     throw std::invalid_argument("need 0 <= min_range_m < max_range_m");
   }
-  if (registration_voxel_m <= 0 || keyframe_voxel_m <= 0 || min_points < 1 ||
+  if (!(registration_voxel_m > 0) || !(keyframe_voxel_m > 0) || min_points < 1 ||
       max_registration_points < 6) {
     throw std::invalid_argument("voxel sizes must be positive and min_points at least 1");
   }
-  if (keyframe_translation_m <= 0 || keyframe_rotation_rad <= 0) {
+  if (!(keyframe_translation_m > 0) || !(keyframe_rotation_rad > 0)) {
     throw std::invalid_argument("keyframe thresholds must be positive");
   }
-  if (init_window_s <= 0 || imu_wait_s < 0 || history_s <= 0) {
+  if (!(init_window_s > 0) || !(imu_wait_s >= 0) || !(history_s > 0)) {
     throw std::invalid_argument("init_window_s and history_s must be positive");
   }
-  if (correction_blend <= 0 || correction_blend > 1) {
+  if (max_queued_scans < 1 || !(imu_buffer_s >= 1.0 && imu_buffer_s <= 600.0)) {
+    throw std::invalid_argument(
+        "max_queued_scans must be at least 1 and imu_buffer_s within [1, 600]");
+  }
+  if (!(correction_blend > 0 && correction_blend <= 1)) {
     throw std::invalid_argument("correction_blend must be in (0, 1]");
+  }
+  for (const auto& [name, value] :
+       {std::pair<const char*, double>{"stationary_accel_std_mps2", stationary_accel_std_mps2},
+        {"stationary_gyro_std_rps", stationary_gyro_std_rps},
+        {"standstill_max_speed_mps", standstill_max_speed_mps},
+        {"standstill_gyro_rps", standstill_gyro_rps},
+        {"standstill_accel_std_mps2", standstill_accel_std_mps2},
+        {"standstill_velocity_sigma_mps", standstill_velocity_sigma_mps},
+        {"motion_translation_sigma_mps", motion_translation_sigma_mps},
+        {"motion_rotation_sigma_rps", motion_rotation_sigma_rps},
+        {"correspondence_sigmas", correspondence_sigmas},
+        {"correspondence_lever_m", correspondence_lever_m},
+        {"correspondence_cap_m", correspondence_cap_m},
+        {"correction_max_step_m", correction_max_step_m},
+        {"correction_max_step_rad", correction_max_step_rad},
+        {"map_insert_translation_m", map_insert_translation_m},
+        {"map_insert_rotation_rad", map_insert_rotation_rad}}) {
+    if (!(value > 0.0)) {
+      throw std::invalid_argument(std::string(name) + " must be positive, got " +
+                                  std::to_string(value));
+    }
+  }
+  if (!lidar_translation_m.allFinite() || !lidar_rpy_deg.allFinite() ||
+      !(std::abs(lidar_time_offset_s) <= 1.0)) {
+    throw std::invalid_argument(
+        "the LiDAR extrinsic must be finite and lidar_time_offset_s within +-1 s");
   }
 }
 
@@ -102,9 +132,13 @@ const OdometryCounters& LidarInertialOdometry::counters() const {
 }
 
 void LidarInertialOdometry::add_imu(const ImuSample& sample) {
-  if (config_.use_imu) {
-    imu_.add(sample);
+  if (!config_.use_imu) {
+    return;
   }
+  imu_.add(sample);
+  const size_t before = imu_.size();
+  imu_.drop_before(imu_.last_utime() - to_us(config_.imu_buffer_s));
+  counters_.imu_dropped_old += static_cast<int64_t>(before - imu_.size());
 }
 
 void LidarInertialOdometry::add_scan(LidarScan scan) {
@@ -120,6 +154,10 @@ void LidarInertialOdometry::add_scan(LidarScan scan) {
     return;
   }
   scans_.push_back(std::move(scan));
+  if (scans_.size() > static_cast<size_t>(config_.max_queued_scans)) {
+    scans_.pop_front();
+    ++counters_.scans_dropped_queue;
+  }
 }
 
 std::vector<OdometryEstimate> LidarInertialOdometry::process() { return run(false); }
@@ -162,7 +200,14 @@ std::vector<OdometryEstimate> LidarInertialOdometry::run(bool force) {
       state_utime_ = start;
       P_.setZero();
     }
-    out.push_back(process_scan(scan, start, end));
+    try {
+      out.push_back(process_scan(scan, start, end));
+    } catch (const std::exception& e) {
+      // The state is left as the step that threw found it; the sweep is lost, not the
+      // odometry (nothing after it may wait behind it).
+      ++counters_.scans_failed;
+      last_failure_ = e.what();
+    }
     last_scan_end_utime_ = end;
     scans_.pop_front();
   }

@@ -11,6 +11,7 @@
 
 #include <deque>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "imu/imu_buffer.hpp"
@@ -51,6 +52,11 @@ struct OdometryConfig {
   double stationary_accel_std_mps2 = 0.3;  // below: a standing start
   double stationary_gyro_std_rps = 0.03;
   double imu_wait_s = 0.2;  // then a sweep goes ahead without full IMU coverage
+  // Bounds on what waits: sweeps queued for the IMU to cover them (the oldest is dropped
+  // beyond this), and IMU samples kept (older than this behind the newest are dropped),
+  // so that a LiDAR without IMU or an IMU without LiDAR cannot fill the memory.
+  int max_queued_scans = 50;
+  double imu_buffer_s = 10.0;
   // Zero-velocity update: when the filter's speed is low and the IMU says the vehicle
   // stands (mean rate ~0 and specific force steady over the sweep, beyond the white
   // noise its density predicts), velocity 0 is a measurement. It keeps a standing robot
@@ -101,6 +107,8 @@ struct OdometryConfig {
     v("stationary_accel_std_mps2", stationary_accel_std_mps2);
     v("stationary_gyro_std_rps", stationary_gyro_std_rps);
     v("imu_wait_s", imu_wait_s);
+    v("max_queued_scans", max_queued_scans);
+    v("imu_buffer_s", imu_buffer_s);
     v("zero_velocity_update", zero_velocity_update);
     v("standstill_max_speed_mps", standstill_max_speed_mps);
     v("standstill_gyro_rps", standstill_gyro_rps);
@@ -128,18 +136,25 @@ class LidarInertialOdometry {
 
   // Refused samples (non-finite, repeated, out of order) are counted.
   void add_imu(const ImuSample& sample);
-  // Sweeps starting before the previous one ended, or repeated, are counted and dropped.
+  // Sweeps starting before the previous one ended, or repeated, are counted and dropped;
+  // beyond max_queued_scans waiting, the oldest is dropped and counted.
   void add_scan(LidarScan scan);
   // Biases and velocity apply at once; a pose correction is blended in over the
   // following sweeps. Corrections for times outside the history are counted, ignored.
   void add_correction(const OdometryCorrection& correction);
 
-  // Estimates for every sweep that can be processed now, in order.
+  // Estimates for every sweep that can be processed now, in order. A sweep whose
+  // processing fails is dropped, counted (scans_failed) and its reason kept.
   std::vector<OdometryEstimate> process();
   // Processes every waiting sweep, whether or not the IMU covers it (end of data).
   std::vector<OdometryEstimate> flush();
 
   const OdometryCounters& counters() const;
+  // Sweeps waiting for the IMU to cover them.
+  size_t queued_scans() const { return scans_.size(); }
+  bool has_imu() const { return !imu_.empty(); }
+  // Why the last sweep that failed failed (empty if none did).
+  const std::string& last_failure() const { return last_failure_; }
   const NavState& state() const { return x_; }
   const StateMatrix& covariance() const { return P_; }
   size_t map_points() const { return map_.num_points(); }
@@ -211,6 +226,7 @@ class LidarInertialOdometry {
   Eigen::Isometry3d last_keyframe_T_local_body_ = Eigen::Isometry3d::Identity();
   int64_t next_keyframe_id_ = 0;
   int64_t sweeps_since_cleanup_ = 0;
+  std::string last_failure_;
 };
 
 }  // namespace liloc

@@ -78,6 +78,9 @@ struct OdometryCounters {
   int64_t corrections_applied = 0;
   int64_t corrections_rejected = 0;  // time outside the kept history, or non-finite
   int64_t imu_rejected = 0;          // non-finite, repeated or out-of-order samples
+  int64_t scans_dropped_queue = 0;   // oldest queued sweep dropped: max_queued_scans waiting
+  int64_t imu_dropped_old = 0;       // samples older than imu_buffer_s behind the newest
+  int64_t scans_failed = 0;          // processing threw: the sweep was dropped (last_failure)
 };
 
 }  // namespace liloc

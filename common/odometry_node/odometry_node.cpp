@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "app/rate_limit.hpp"
 #include "bridge/lcm_conversions.hpp"
 #include "bridge/status_report.hpp"
 
@@ -11,47 +12,125 @@ namespace liloc {
 
 OdometryNode::OdometryNode(transport::Transport& bus, const std::string& robot_id,
                            const OdometryNodeConfig& config)
-    : bus_(bus), config_(config), odometry_(config.odometry), frames_{robot_id, "odom", "body"} {
+    : bus_(bus),
+      robot_id_(robot_id),
+      config_(config),
+      odometry_(std::make_unique<LidarInertialOdometry>(config.odometry)),
+      frames_{robot_id, "odom", "body"},
+      imu_clock_(config.sensors.max_time_jump_s, config.sensors.confirm_jump_messages),
+      lidar_clock_(config.sensors.max_time_jump_s, config.sensors.confirm_jump_messages) {
+  config_.sensors.validate();
   const auto channel = [&](const std::string& suffix) {
     return transport::robot_channel(robot_id, suffix);
   };
+  imu_channel_ = channel(config.channels.imu);
+  lidar_channel_ = channel(config.channels.lidar);
   odom_channel_ = channel(config.channels.odom);
   keyframe_channel_ = channel(config.channels.keyframe);
   status_channel_ = channel(config.channels.status) + ".odometry";
-  bus_.subscribe<liloc::imu_t>(channel(config.channels.imu),
-                               [this](const liloc::imu_t& msg, const transport::ReceiveInfo&) {
-                                 size_t non_finite = 0;
-                                 for (const ImuSample& s : bridge::from_msg(msg, &non_finite)) {
-                                   odometry_.add_imu(s);
-                                 }
-                                 non_finite_imu_ += static_cast<int64_t>(non_finite);
-                                 publish(odometry_.process());
-                               });
+  bus_.subscribe<liloc::imu_t>(
+      imu_channel_,
+      [this](const liloc::imu_t& msg, const transport::ReceiveInfo&) { on_imu(msg); });
   bus_.subscribe<liloc::lidar_scan_t>(
-      channel(config.channels.lidar),
-      [this](const liloc::lidar_scan_t& msg, const transport::ReceiveInfo&) {
-        size_t non_finite = 0;
-        odometry_.add_scan(bridge::from_msg(msg, &non_finite));
-        non_finite_points_ += static_cast<int64_t>(non_finite);
-        publish(odometry_.process());
-      });
+      lidar_channel_,
+      [this](const liloc::lidar_scan_t& msg, const transport::ReceiveInfo&) { on_scan(msg); });
   bus_.subscribe<liloc::correction_t>(
       channel(config.channels.correction),
       [this](const liloc::correction_t& msg, const transport::ReceiveInfo&) {
-        odometry_.add_correction(bridge::from_msg(msg));
+        odometry_->add_correction(bridge::from_msg(msg));
       });
   spdlog::info("odometry for {} ({})", robot_id,
                config.odometry.use_imu ? "LiDAR-inertial" : "LiDAR only");
 }
 
+void OdometryNode::on_imu(const liloc::imu_t& msg) {
+  size_t non_finite = 0;
+  for (const ImuSample& s : bridge::from_msg(msg, &non_finite)) {
+    ++imu_received_;
+    if (const std::optional<std::string> why = implausible_imu(s, config_.sensors)) {
+      reject("imu_implausible", "IMU sample refused: " + *why);
+      continue;
+    }
+    const StreamClock::Verdict time = imu_clock_.check(s.utime_us);
+    if (time == StreamClock::Verdict::kJump) {
+      reject("imu_time_jump", "IMU sample refused: time " + std::to_string(s.utime_us) +
+                                  " us jumps from the stream's");
+      continue;
+    }
+    if (time == StreamClock::Verdict::kNewTimeline) {
+      restart("the IMU's time moved to " + std::to_string(s.utime_us) + " us");
+    }
+    odometry_->add_imu(s);
+    last_data_utime_us_ = std::max(last_data_utime_us_, s.utime_us);
+  }
+  non_finite_imu_ += static_cast<int64_t>(non_finite);
+  publish(odometry_->process());
+}
+
+void OdometryNode::on_scan(const liloc::lidar_scan_t& msg) {
+  ++scans_received_;
+  size_t non_finite = 0;
+  LidarScan scan = bridge::from_msg(msg, &non_finite);
+  non_finite_points_ += static_cast<int64_t>(non_finite);
+  if (const std::optional<std::string> why = implausible_scan(scan, config_.sensors)) {
+    reject("scan_implausible", "sweep refused: " + *why);
+    return;
+  }
+  const StreamClock::Verdict time = lidar_clock_.check(scan.utime_us);
+  if (time == StreamClock::Verdict::kJump) {
+    reject("scan_time_jump",
+           "sweep refused: time " + std::to_string(scan.utime_us) + " us jumps from the stream's");
+    return;
+  }
+  if (time == StreamClock::Verdict::kNewTimeline) {
+    restart("the LiDAR's time moved to " + std::to_string(scan.utime_us) + " us");
+  } else if (last_scan_start_us_ != 0 &&
+             std::llabs(scan.utime_us - last_scan_start_us_) <
+                 static_cast<int64_t>(config_.sensors.min_scan_interval_s * 1e6)) {
+    reject("scan_too_soon", "sweep refused: it starts " +
+                                std::to_string(scan.utime_us - last_scan_start_us_) +
+                                " us after the previous one");
+    return;
+  }
+  last_scan_start_us_ = scan.utime_us;
+  last_data_utime_us_ = std::max(last_data_utime_us_, scan.utime_us);
+  odometry_->add_scan(std::move(scan));
+  publish(odometry_->process());
+}
+
+void OdometryNode::reject(const std::string& kind, const std::string& reason) {
+  const int64_t count = ++rejected_[kind];
+  ++rejected_total_;
+  last_problem_ = reason;
+  if (should_log(count)) {
+    spdlog::warn("{}: {} ({} {} so far)", robot_id_, reason, count, kind);
+  }
+}
+
+void OdometryNode::restart(const std::string& why) {
+  ++restarts_;
+  last_problem_ = why + ": the odometry restarted (its odom frame starts again)";
+  spdlog::warn("{}: {}", robot_id_, last_problem_);
+  odometry_ = std::make_unique<LidarInertialOdometry>(config_.odometry);
+  last_scan_start_us_ = 0;
+}
+
+void OdometryNode::tick(int64_t now_us) {
+  if (now_us - last_status_wall_us_ >= static_cast<int64_t>(config_.status_period_s * 1e6)) {
+    publish_status(nullptr, last_data_utime_us_ > 0 ? last_data_utime_us_ : now_us);
+  }
+}
+
 bool OdometryNode::finish() {
-  publish(odometry_.flush());
-  const OdometryCounters& c = odometry_.counters();
+  publish(odometry_->flush());
+  const OdometryCounters& c = odometry_->counters();
   spdlog::info(
       "done: {} sweeps processed ({} received, {} out of order, {} too small, {} "
-      "before init, {} without IMU), {} keyframes, {} degenerate",
+      "before init, {} without IMU, {} failed), {} keyframes, {} degenerate; {} messages "
+      "refused at the door, {} restarts",
       c.scans_processed, c.scans_received, c.scans_out_of_order, c.scans_too_small,
-      c.scans_before_init, c.scans_without_imu, c.keyframes, c.degenerate_scans);
+      c.scans_before_init, c.scans_without_imu, c.scans_failed, c.keyframes, c.degenerate_scans,
+      rejected_total_, restarts_);
   return true;
 }
 
@@ -63,30 +142,52 @@ void OdometryNode::publish(const std::vector<OdometryEstimate>& estimates) {
       liloc::keyframe_t kf = bridge::to_msg(*e.keyframe, frames_);
       bus_.publish(keyframe_channel_, kf);
     }
-    publish_status(e);
+    publish_status(&e, e.utime_us);
+  }
+  if (!odometry_->last_failure().empty()) {
+    last_problem_ = "sweep dropped: " + odometry_->last_failure();
   }
 }
 
-void OdometryNode::publish_status(const OdometryEstimate& e) {
+std::string OdometryNode::waiting_reason() const {
+  if (scans_received_ == 0) {
+    return "waiting for LiDAR on " + lidar_channel_;
+  }
+  if (config_.odometry.use_imu && !odometry_->has_imu()) {
+    return "waiting for IMU on " + imu_channel_;
+  }
+  if (odometry_->queued_scans() > 0) {
+    return std::to_string(odometry_->queued_scans()) +
+           " sweep(s) waiting for the IMU to cover them (" + imu_channel_ + ")";
+  }
+  return "no sweep since the last status";
+}
+
+void OdometryNode::publish_status(const OdometryEstimate* e, int64_t utime_us) {
   bridge::StatusReport report;
   report.process = "odometry";
-  report.fitness = static_cast<float>(e.fitness_m);
-  report.degenerate = e.degenerate;
-  report.min_eigenvalue =
-      static_cast<float>(std::min(e.translation_eigen_ratio, e.rotation_eigen_ratio));
-  report.timings_ms = {
-      {"preprocess", e.timings.preprocess_ms}, {"propagate", e.timings.propagate_ms},
-      {"register", e.timings.register_ms},     {"map", e.timings.map_ms},
-      {"keyframe", e.timings.keyframe_ms},     {"total", e.timings.total_ms}};
-  const OdometryCounters& c = odometry_.counters();
+  if (e != nullptr) {
+    report.fitness = static_cast<float>(e->fitness_m);
+    report.degenerate = e->degenerate;
+    report.min_eigenvalue =
+        static_cast<float>(std::min(e->translation_eigen_ratio, e->rotation_eigen_ratio));
+    report.timings_ms = {
+        {"preprocess", e->timings.preprocess_ms}, {"propagate", e->timings.propagate_ms},
+        {"register", e->timings.register_ms},     {"map", e->timings.map_ms},
+        {"keyframe", e->timings.keyframe_ms},     {"total", e->timings.total_ms}};
+  }
+  const OdometryCounters& c = odometry_->counters();
   report.counters = {{"scans_received", c.scans_received},
                      {"scans_processed", c.scans_processed},
                      {"scans_out_of_order", c.scans_out_of_order},
                      {"scans_too_small", c.scans_too_small},
                      {"scans_before_init", c.scans_before_init},
                      {"scans_without_imu", c.scans_without_imu},
+                     {"scans_dropped_queue", c.scans_dropped_queue},
+                     {"scans_failed", c.scans_failed},
                      {"imu_gaps", c.imu_gaps},
                      {"imu_rejected", c.imu_rejected},
+                     {"imu_dropped_old", c.imu_dropped_old},
                      {"non_finite_imu", non_finite_imu_},
                      {"non_finite_points", non_finite_points_},
                      {"degenerate_scans", c.degenerate_scans},
@@ -94,15 +195,27 @@ void OdometryNode::publish_status(const OdometryEstimate& e) {
                      {"keyframes", c.keyframes},
                      {"corrections_applied", c.corrections_applied},
                      {"corrections_rejected", c.corrections_rejected},
-                     {"map_points", static_cast<int64_t>(odometry_.map_points())}};
+                     {"restarts", restarts_},
+                     {"map_points", static_cast<int64_t>(odometry_->map_points())}};
+  for (const auto& [kind, count] : rejected_) {
+    report.counters.emplace_back("rejected_" + kind, count);
+  }
   report.add_transport_counters(bus_);
-  if (!e.registered) {
+  if (e == nullptr) {
+    report.mode =
+        c.scans_processed == 0 ? liloc::status_t::MODE_INITIALIZING : liloc::status_t::MODE_NONE;
+    report.message = waiting_reason();
+    if (!last_problem_.empty()) {
+      report.message += "; last problem: " + last_problem_;
+    }
+  } else if (!e->registered) {
     report.message = "sweep too small to register: pose from the motion model";
-  } else if (e.degenerate) {
+  } else if (e->degenerate) {
     report.message = "registration degenerate: the motion model holds the weak direction";
   }
-  liloc::status_t status = bridge::to_msg(report, e.utime_us, frames_.robot_id);
+  liloc::status_t status = bridge::to_msg(report, utime_us, frames_.robot_id);
   bus_.publish(status_channel_, status);
+  last_status_wall_us_ = node::wall_clock_us();
 }
 
 }  // namespace liloc

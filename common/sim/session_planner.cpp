@@ -94,6 +94,14 @@ class RouteBuilder {
 
 }  // namespace
 
+void SessionPlanConfig::validate() const {
+  for (const double length : {a_length_m, b_inside_m, b_excursion_m, c_length_m, d_length_m}) {
+    if (!(length > 0.0 && length <= 1e6)) {
+      throw std::invalid_argument("session lengths must be in (0, 1e6] m");
+    }
+  }
+}
+
 SessionPlan plan_session(const std::string& name, const World& world, double mapped_max_x_m,
                          const SessionPlanConfig& config, uint64_t seed) {
   const RoadNetwork& roads = world.roads();

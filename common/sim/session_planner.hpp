@@ -30,6 +30,7 @@ struct SessionPlanConfig {
     v("c_length_m", c_length_m);
     v("d_length_m", d_length_m);
   }
+  void validate() const;
 };
 
 struct SessionPlan {

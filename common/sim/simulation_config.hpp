@@ -25,6 +25,7 @@ struct RigConfig {
     v("lidar_rpy_deg", lidar_rpy_deg);
     v("lidar_time_offset_s", lidar_time_offset_s);
   }
+  void validate() const;
   SensorRig rig() const;
 };
 
@@ -53,6 +54,7 @@ struct SimulationConfig {
     v("days_between_sessions", days_between_sessions);
     v("ground_truth_rate_hz", ground_truth_rate_hz);
   }
+  void validate() const;
 };
 
 }  // namespace liloc::sim

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "sim/random.hpp"
 
@@ -518,7 +519,19 @@ GeneratedWorld generate_world(const WorldConfig& config) {
   return config.kind == "corridor" ? generate_corridor(config) : generate_campus(config);
 }
 
+void DayChangeConfig::validate() const {
+  const auto fraction = [](double f) { return f >= 0.0 && f <= 1.0; };
+  if (!fraction(movable_change_fraction) || !fraction(bush_removal_fraction) ||
+      new_structures < 0 || !(foliage_scale_min > 0 && foliage_scale_max >= foliage_scale_min) ||
+      !(foliage_density_min >= 0 && foliage_density_max >= foliage_density_min)) {
+    throw std::invalid_argument(
+        "fractions must be in [0, 1], new_structures not negative, and each foliage min "
+        "positive and at most its max");
+  }
+}
+
 DayChangeReport apply_day_changes(World& world, int64_t seed, const DayChangeConfig& config) {
+  config.validate();
   Random rng(mix64(static_cast<uint64_t>(seed) * 7919 + 3));
   DayChangeReport report;
   std::vector<WorldObject> objects;

@@ -78,6 +78,7 @@ struct DayChangeConfig {
     v("foliage_density_max", foliage_density_max);
     v("bush_removal_fraction", bush_removal_fraction);
   }
+  void validate() const;
 };
 
 struct GeneratedWorld {

@@ -157,7 +157,9 @@ bool MapStore::exists() const {
 std::string MapStore::read_current_version_name() const {
   std::error_code error;
   if (!fs::is_directory(directory_, error)) {
-    throw MapError::in_file(directory_, "missing (no such map directory)");
+    throw MapError::in_file(directory_, fs::exists(directory_, error)
+                                            ? "is a file, not a map directory"
+                                            : "missing (no such map directory)");
   }
   const std::string path = join(directory_, kCurrentFile);
   if (!file_size_bytes(path)) {

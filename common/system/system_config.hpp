@@ -18,6 +18,7 @@ namespace liloc {
 struct SystemConfig {
   transport::TransportConfig transport;
   transport::ChannelConfig channels;
+  SensorLimits sensors;  // what the robots' sensors can plausibly send
   OdometryConfig odometry;
   PolarDescriptorConfig descriptor;  // one for the map, loop closure and initialization
   SubmapConfig submaps;              // Eq. 2: one rule for built maps and merged updates
@@ -28,6 +29,7 @@ struct SystemConfig {
   void visit_fields(V& v) {
     v("transport", transport);
     v("channels", channels);
+    v("sensors", sensors);
     v("odometry", odometry);
     v("descriptor", descriptor);
     v("submaps", submaps);
@@ -35,7 +37,7 @@ struct SystemConfig {
     v("map_builder", map_builder);
   }
 
-  OdometryNodeConfig odometry_node() const { return {channels, odometry}; }
+  OdometryNodeConfig odometry_node() const { return {channels, sensors, odometry}; }
   MapServerNodeConfig map_server_node() const {
     return {channels, descriptor, submaps, map_server};
   }

@@ -2,6 +2,9 @@
 // Channel names. Per-robot channels are "<robot_id>.<suffix>" so that several robots
 // share one bus; map channels are global. Every name is configurable.
 
+#include <algorithm>
+#include <cctype>
+#include <stdexcept>
 #include <string>
 
 namespace liloc::transport {
@@ -39,7 +42,24 @@ struct ChannelConfig {
     v("map_update", map_update);
     v("map_info", map_info);
   }
+  // Names are LCM channels (a robot id and a dot before per-robot ones): not empty, at most
+  // 40 characters of letters, digits, '.', '_' or '-'.
+  void validate() const;
 };
+
+inline void ChannelConfig::validate() const {
+  ChannelConfig copy = *this;
+  auto check = [](const char* key, const std::string& name) {
+    const bool plain = std::all_of(name.begin(), name.end(), [](char c) {
+      return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-';
+    });
+    if (name.empty() || name.size() > 40 || !plain) {
+      throw std::invalid_argument(std::string(key) + " '" + name +
+                                  "' must be 1-40 letters, digits, '.', '_' or '-'");
+    }
+  };
+  copy.visit_fields(check);
+}
 
 inline std::string robot_channel(const std::string& robot_id, const std::string& suffix) {
   return robot_id + "." + suffix;

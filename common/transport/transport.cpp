@@ -2,18 +2,83 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
 #include <lcm/lcm-cpp.hpp>
+#include <optional>
+#include <sstream>
+#include <thread>
+
+#include "app/rate_limit.hpp"
+#include "transport/log_file.hpp"
 
 namespace liloc::transport {
 namespace {
-// Log the first few occurrences of a problem, then every 1000th, so that a flood of bad
-// messages stays visible without drowning the log.
-bool should_log(int64_t count) { return count <= 5 || count % 1000 == 0; }
+
+constexpr int64_t kMessageLogPeriod = 1000;
+// Bounds the per-subscription sender table of a misconfigured process.
+constexpr int kMostSenders = 1000000;
+
+struct LogUrl {
+  std::string path;
+  double speed = 1.0;  // LCM's default: real time
+};
+
+// A file:// URL that LCM would open for reading; nullopt for any other URL, including a
+// file:// log opened for writing (mode=w or a), which LCM's provider keeps handling.
+// Unknown options are refused: a misspelt speed=0 would otherwise replay in real time.
+std::optional<LogUrl> parse_log_url(const std::string& url) {
+  const std::string scheme = "file://";
+  if (url.rfind(scheme, 0) != 0) {
+    return std::nullopt;
+  }
+  const size_t query = url.find('?');
+  LogUrl log{url.substr(scheme.size(), query - scheme.size())};
+  if (log.path.empty()) {
+    throw std::invalid_argument("LCM URL '" + url + "' names no file");
+  }
+  if (query == std::string::npos) {
+    return log;
+  }
+  std::istringstream options(url.substr(query + 1));
+  for (std::string option; std::getline(options, option, '&');) {
+    const size_t equals = option.find('=');
+    const std::string key = option.substr(0, equals);
+    const std::string value = equals == std::string::npos ? "" : option.substr(equals + 1);
+    if (key == "mode" && (value == "w" || value == "a")) {
+      return std::nullopt;
+    }
+    if (key == "mode" && value == "r") {
+      continue;
+    }
+    if (key == "speed") {
+      char* end = nullptr;
+      log.speed = std::strtod(value.c_str(), &end);
+      if (!value.empty() && *end == '\0') {
+        continue;  // ReplayClock refuses a negative or non-finite speed
+      }
+    }
+    throw std::invalid_argument("LCM URL '" + url + "': option '" + option +
+                                "' is not speed=S (S >= 0, 0: at once) or mode=r|w|a");
+  }
+  return log;
+}
+
 }  // namespace
+
+// A file:// log: read by LogReader, each event dispatched when ReplayClock says it is due.
+struct Transport::LogSource {
+  LogSource(const std::string& path, double speed) : reader(path), clock(speed) {}
+  LogReader reader;
+  ReplayClock clock;
+  LogEventView event;
+  bool event_pending = false;  // read, not yet due
+};
 
 void TransportConfig::validate() const {
   if (url.empty()) {
-    throw std::invalid_argument("must not be empty");
+    throw std::invalid_argument("url must not be empty");
   }
   if (max_message_bytes < 1024) {
     throw std::invalid_argument("max_message_bytes must be at least 1024");
@@ -21,15 +86,28 @@ void TransportConfig::validate() const {
   if (queue_capacity < 1) {
     throw std::invalid_argument("queue_capacity must be at least 1");
   }
+  if (max_sequence_gap < 1) {
+    throw std::invalid_argument("max_sequence_gap must be at least 1");
+  }
+  if (max_senders < 1 || max_senders > kMostSenders) {
+    throw std::invalid_argument("max_senders must be in [1, " + std::to_string(kMostSenders) + "]");
+  }
+  if (reply_ports < 0 || reply_ports > 64) {
+    throw std::invalid_argument("reply_ports must be in [0, 64]");
+  }
 }
 
-Transport::Transport(const TransportConfig& config)
-    : config_(config), lcm_(std::make_unique<lcm::LCM>(config.url)) {
+Transport::Transport(const TransportConfig& config) : config_(config) {
   config_.validate();
+  if (const std::optional<LogUrl> log = parse_log_url(config.url)) {
+    log_ = std::make_unique<LogSource>(log->path, log->speed);
+  }
+  // A log's events go through an in-process instance, so that subscriptions, decoding and
+  // counters work as on a bus.
+  lcm_ = std::make_unique<lcm::LCM>(log_ ? "memq://" : config.url);
   if (!lcm_->good()) {
     throw std::runtime_error("cannot open LCM provider '" + config.url +
-                             "' (for udpm on loopback check the multicast route; for file:// "
-                             "check the path)");
+                             "' (for udpm on loopback check the multicast route)");
   }
   if (!config.publish_url.empty() && config.publish_url != config.url) {
     publish_lcm_ = std::make_unique<lcm::LCM>(config.publish_url);
@@ -56,22 +134,28 @@ bool Transport::publish_raw(const std::string& channel, const void* data, size_t
 
 bool Transport::send_locked(const std::string& channel, const void* data, size_t size) {
   if (size > static_cast<size_t>(config_.max_message_bytes)) {
-    ++publish_errors_;
-    if (should_log(publish_errors_)) {
-      spdlog::error("not publishing {} bytes on {}: over max_message_bytes = {}", size, channel,
-                    config_.max_message_bytes);
-    }
+    count_publish_error("not publishing " + std::to_string(size) + " bytes on " + channel +
+                        ": over max_message_bytes = " + std::to_string(config_.max_message_bytes));
+    return false;
+  }
+  if (log_ && !publish_lcm_) {
+    count_publish_error("not publishing on " + channel + ": the transport reads the log " +
+                        config_.url + "; set publish_url to publish");
     return false;
   }
   lcm::LCM& out = publish_lcm_ ? *publish_lcm_ : *lcm_;
   if (out.publish(channel, data, static_cast<unsigned int>(size)) != 0) {
-    ++publish_errors_;
-    if (should_log(publish_errors_)) {
-      spdlog::error("LCM failed to publish {} bytes on {}", size, channel);
-    }
+    count_publish_error("LCM failed to publish " + std::to_string(size) + " bytes on " + channel);
     return false;
   }
   return true;
+}
+
+void Transport::count_publish_error(const std::string& what) {
+  const int64_t count = ++publish_errors_;
+  if (should_log(count, kMessageLogPeriod)) {
+    spdlog::error("{} (publish error #{})", what, count);
+  }
 }
 
 void Transport::subscribe_raw(const std::string& channel_regex, RawHandler handler) {
@@ -84,10 +168,7 @@ void Transport::subscribe_raw(const std::string& channel_regex, RawHandler handl
 }
 
 void Transport::add_subscription(const std::string& channel, bool is_regex, Decoder decoder) {
-  auto sub = std::make_unique<Subscription>();
-  sub->channel = channel;
-  sub->decode = std::move(decoder);
-  sub->owner = this;
+  auto sub = std::make_unique<Subscription>(channel, std::move(decoder), this);
   Subscription* raw = sub.get();
   // LCM treats every channel string as a regex; quote an exact name's regex characters.
   std::string pattern = channel;
@@ -138,29 +219,15 @@ void Transport::on_message(const lcm::ReceiveBuffer* rbuf, const std::string& ch
 }
 
 void Transport::warn(Subscription& sub, const std::string& what, int64_t count) {
-  if (should_log(count)) {
+  if (should_log(count, kMessageLogPeriod)) {
     spdlog::warn("{}: {} (#{})", sub.channel, what, count);
   }
 }
 
-void Transport::track_sequence(Subscription& sub, const std::string& sender, int64_t seq) {
-  auto [it, first] = sub.last_seq_by_sender.try_emplace(sender, seq);
-  if (first) {
-    return;
-  }
-  int64_t& last = it->second;
-  if (seq > last) {
-    sub.stats.dropped += seq - last - 1;
-    last = seq;
-  } else {
-    ++sub.stats.out_of_order;
-    if (seq == 0) {
-      last = 0;  // the sender restarted
-    }
-  }
-}
-
 int Transport::handle(int timeout_ms) {
+  if (log_) {
+    return handle_log_event(timeout_ms);
+  }
   const int first = lcm_->handleTimeout(timeout_ms);
   if (first < 0) {
     return -1;
@@ -169,6 +236,33 @@ int Transport::handle(int timeout_ms) {
     return 0;
   }
   return 1 + drain();
+}
+
+// One event per call, so that nodes are ticked between events however fast the log plays.
+int Transport::handle_log_event(int timeout_ms) {
+  LogSource& log = *log_;
+  if (!log.event_pending) {
+    if (!log.reader.next(log.event)) {
+      return -1;
+    }
+    log.event_pending = true;
+  }
+  const auto due = log.clock.due(log.event.utime);
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::milliseconds(std::max(timeout_ms, 0));
+  if (due > deadline) {
+    std::this_thread::sleep_until(deadline);
+    return 0;
+  }
+  std::this_thread::sleep_until(due);
+  log.event_pending = false;
+  if (lcm_->publish(log.event.channel, log.event.data, static_cast<unsigned int>(log.event.size)) !=
+      0) {
+    count_publish_error("LCM refused to dispatch the logged event of " +
+                        std::to_string(log.event.size) + " bytes on " + log.event.channel);
+    return 0;
+  }
+  return drain();
 }
 
 int Transport::drain() {
@@ -185,9 +279,17 @@ int Transport::drain() {
 std::map<std::string, ChannelStats> Transport::stats() const {
   std::map<std::string, ChannelStats> out;
   for (const auto& sub : subscriptions_) {
-    out[sub->channel] = sub->stats;
+    ChannelStats s = sub->stats;
+    const SequenceCounts& sequences = sub->sequences.counts();
+    s.dropped = sequences.dropped;
+    s.out_of_order = sequences.out_of_order;
+    s.sequence_resets = sequences.sequence_resets;
+    s.senders_forgotten = sequences.senders_forgotten;
+    out[sub->channel] = s;
   }
   return out;
 }
+
+const LogDamage* Transport::log_damage() const { return log_ ? &log_->reader.damage() : nullptr; }
 
 }  // namespace liloc::transport

@@ -4,11 +4,15 @@
 //
 // URLs: udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304 (default, loopback only),
 // memq:// (in-process, deterministic, for tests and benchmarks), file:///x.lcmlog?speed=0
-// (read a log as if it were the bus).
+// (read a log as if it were the bus; speed S > 0 keeps the logged timing scaled by S, the
+// default 1 is real time). A log is read by LogReader, which skips corrupt regions and
+// reports them (log_damage()), and its events are dispatched through an in-process
+// memq:// instance, one event per handle().
 //
 // Robustness: a message that does not decode (wrong fingerprint, truncated or corrupt
 // bytes) or exceeds max_message_bytes is counted, logged (rate-limited) and skipped;
-// a handler that throws is counted and logged; sequence gaps per sender count as drops.
+// a handler that throws is counted and logged; sequence gaps per sender count as drops,
+// jumps beyond max_sequence_gap as sender restarts.
 
 #include <atomic>
 #include <cstdint>
@@ -39,6 +43,15 @@ struct TransportConfig {
   // Messages LCM queues per subscription before it drops the oldest (LCM's default is 30,
   // too few for a 400 Hz IMU while a scan is processed).
   int queue_capacity = 1000;
+  // A sequence number further than this from its sender's last one (either way) means the
+  // sender restarted: counted in sequence_resets, not as drops.
+  int64_t max_sequence_gap = 100000;
+  // Senders whose sequence numbers each subscription remembers; beyond it the least
+  // recently heard is forgotten (senders_forgotten), so a flood of ids cannot grow memory.
+  int max_senders = 256;
+  // Replies addressed to one robot (the map server's submaps) go to a port of the robot's
+  // own among this many after the bus's (node/reply_route.hpp); 0: on the bus itself.
+  int reply_ports = 8;
 
   template <class V>
   void visit_fields(V& v) {
@@ -46,25 +59,33 @@ struct TransportConfig {
     v("publish_url", publish_url);
     v("max_message_bytes", max_message_bytes);
     v("queue_capacity", queue_capacity);
+    v("max_sequence_gap", max_sequence_gap);
+    v("max_senders", max_senders);
+    v("reply_ports", reply_ports);
   }
   void validate() const;
 };
 
-// Health of one subscription, cumulative since start.
+// Health of one subscription, cumulative since start. The sequence counters are those of
+// SequenceCounts (sequence_tracker.hpp), over the senders of typed messages.
 struct ChannelStats {
-  int64_t received = 0;        // decoded and handed to the handler
-  int64_t decode_errors = 0;   // wrong type fingerprint, truncated or corrupt
-  int64_t oversized = 0;       // larger than max_message_bytes, not decoded
-  int64_t dropped = 0;         // missing sequence numbers (per sender)
-  int64_t out_of_order = 0;    // sequence number not above the last one (repeat, reorder)
-  int64_t handler_errors = 0;  // the handler threw
+  int64_t received = 0;           // decoded and handed to the handler
+  int64_t decode_errors = 0;      // wrong type fingerprint, truncated or corrupt
+  int64_t oversized = 0;          // larger than max_message_bytes, not decoded
+  int64_t dropped = 0;            // missing sequence numbers (per sender)
+  int64_t out_of_order = 0;       // sequence number not above the last one (repeat, reorder)
+  int64_t handler_errors = 0;     // the handler threw
+  int64_t sequence_resets = 0;    // a sender restarted (negative seq, back to 0, a jump)
+  int64_t senders_forgotten = 0;  // over max_senders, least recently heard first
 };
 
 struct ReceiveInfo {
   const std::string& channel;
-  int64_t recv_utime;  // when LCM received the message (log time when replaying)
+  int64_t recv_utime;  // wall-clock time LCM received (or, from a log, replayed) it
   size_t bytes;
 };
+
+struct LogDamage;  // log_file.hpp
 
 class Transport {
  public:
@@ -92,7 +113,8 @@ class Transport {
 
   // Dispatches messages. Waits up to timeout_ms for the first one, then also delivers
   // whatever else is already queued. Returns the number handled; -1 when the provider
-  // ended (end of a file:// log) or failed.
+  // ended (end of a file:// log) or failed. From a file:// log: waits up to timeout_ms for
+  // the next event to be due, and dispatches that one event.
   int handle(int timeout_ms);
 
   // Handles everything already queued without waiting (in-process memq:// pipelines).
@@ -102,11 +124,14 @@ class Transport {
   std::map<std::string, ChannelStats> stats() const;
   int64_t publish_errors() const { return publish_errors_.load(); }
 
+  // Reading a file:// log: what the reader has skipped so far; null for any other URL.
+  const LogDamage* log_damage() const;
+
   const TransportConfig& config() const { return config_; }
 
  private:
-  struct SequenceTracker;
   struct Subscription;
+  struct LogSource;
   using Decoder = std::function<bool(const void* data, size_t size, const ReceiveInfo& info,
                                      Subscription& sub)>;
 
@@ -115,11 +140,12 @@ class Transport {
   void warn(Subscription& sub, const std::string& what, int64_t count);
   // Sends with publish_mutex_ held; counts and logs a failure.
   bool send_locked(const std::string& channel, const void* data, size_t size);
-  // Updates drop / order counters for a decoded message's sender and sequence number.
-  static void track_sequence(Subscription& sub, const std::string& sender, int64_t seq);
+  void count_publish_error(const std::string& what);
+  int handle_log_event(int timeout_ms);
 
   TransportConfig config_;
-  std::unique_ptr<lcm::LCM> lcm_;
+  std::unique_ptr<LogSource> log_;         // reading a file:// log
+  std::unique_ptr<lcm::LCM> lcm_;          // memq:// when reading a log
   std::unique_ptr<lcm::LCM> publish_lcm_;  // only with a separate publish_url
   std::vector<std::unique_ptr<Subscription>> subscriptions_;
   std::mutex publish_mutex_;  // guards next_seq_ and the LCM send, taken together

@@ -1,20 +1,29 @@
 #pragma once
 // Template part of transport.hpp; include transport.hpp, not this file.
 
-#include <map>
 #include <new>
 #include <stdexcept>
+#include <string>
+#include <utility>
 #include <vector>
+
+#include "transport/sequence_tracker.hpp"
 
 namespace liloc::transport {
 
 struct Transport::Subscription {
+  Subscription(std::string channel_name, Decoder decoder, Transport* transport)
+      : channel(std::move(channel_name)),
+        decode(std::move(decoder)),
+        sequences(transport->config_.max_sequence_gap, transport->config_.max_senders),
+        owner(transport) {}
+
   std::string channel;
   Decoder decode;
-  ChannelStats stats;
-  std::map<std::string, int64_t> last_seq_by_sender;
+  ChannelStats stats;  // the receive counters; stats() adds those of `sequences`
+  SequenceTracker sequences;
   lcm::Subscription* lcm_subscription = nullptr;
-  Transport* owner = nullptr;
+  Transport* owner;
 };
 
 template <class Msg>
@@ -50,7 +59,7 @@ void Transport::subscribe(const std::string& channel,
                      if (used < 0) {
                        return false;
                      }
-                     track_sequence(sub, msg.header.robot_id, msg.header.seq);
+                     sub.sequences.track(msg.header.robot_id, msg.header.seq);
                      handler(msg, info);
                      return true;
                    });

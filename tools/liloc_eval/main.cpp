@@ -51,6 +51,7 @@ struct LoggedRun {
   size_t status_messages = 0;
   eval::ModeTimeline modes;
   std::vector<double> total_ms;  // status timing "total" per cycle
+  bool damaged = false;          // the log had corrupt or truncated parts
 };
 
 LoggedRun read_log(const std::string& path, const std::string& est_channel,
@@ -96,6 +97,14 @@ LoggedRun read_log(const std::string& path, const std::string& est_channel,
         }
       }
     }
+  }
+  if (reader.damage().any()) {
+    run.damaged = true;
+    spdlog::error(
+        "{}: damaged log: {} corrupt region(s), {} bytes skipped{}; the scores cover "
+        "what could be read",
+        path, reader.damage().corrupt_regions, reader.damage().bytes_skipped,
+        reader.damage().truncated_end ? ", the last event truncated" : "");
   }
   if (undecodable + rejected + repeated + bad_timings > 0) {
     spdlog::warn(
@@ -264,7 +273,7 @@ int main(int argc, char** argv) {
       if (!mapped_area_path.empty()) {
         spdlog::warn("--mapped-area only shades the plot, which needs --out");
       }
-      return 0;
+      return run.damaged ? 1 : 0;
     }
     const std::filesystem::path parent = std::filesystem::path(out_prefix).parent_path();
     if (!parent.empty()) {
@@ -285,6 +294,6 @@ int main(int argc, char** argv) {
       throw std::runtime_error("cannot write " + out_prefix + ".png");
     }
     spdlog::info("wrote {}.md, .json, .png, .T_gt_est.txt", out_prefix);
-    return 0;
+    return run.damaged ? 1 : 0;
   });
 }

@@ -5,6 +5,7 @@
 
 #include "bridge/message_samples.hpp"
 #include "transport/log_file.hpp"
+#include "transport/sequence_tracker.hpp"
 
 namespace liloc::tools {
 namespace {
@@ -57,14 +58,16 @@ int64_t read_fingerprint(const transport::LogEventView& event) {
 }
 }  // namespace
 
-std::map<std::string, ChannelSummary> summarize_log(const std::string& path) {
+LogSummary summarize_log(const std::string& path) {
   const std::map<int64_t, KnownType> types = known_types();
-  std::map<std::string, ChannelSummary> summary;
-  std::map<std::pair<std::string, std::string>, int64_t> last_seq;  // (channel, sender)
+  // The transport's rules, so that the counts match what a process would report.
+  const transport::TransportConfig transport_defaults;
+  LogSummary summary;
+  std::map<std::string, transport::SequenceTracker> sequences;  // by channel
   transport::LogReader reader(path);
   transport::LogEventView event;
   while (reader.next(event)) {
-    ChannelSummary& s = summary[event.channel];
+    ChannelSummary& s = summary.channels[event.channel];
     if (s.messages == 0) {
       s.first_utime = event.utime;
     }
@@ -83,36 +86,60 @@ std::map<std::string, ChannelSummary> summarize_log(const std::string& path) {
       ++s.decode_errors;
       continue;
     }
-    if (!type->second.has_header) {
-      continue;
-    }
-    const auto [it, first] = last_seq.try_emplace({event.channel, sender}, seq);
-    if (!first) {
-      if (seq > it->second) {
-        s.sequence_gaps += seq - it->second - 1;
-      } else {
-        ++s.out_of_order;
-      }
-      it->second = seq;
+    if (type->second.has_header) {
+      sequences
+          .try_emplace(event.channel, transport_defaults.max_sequence_gap,
+                       transport_defaults.max_senders)
+          .first->second.track(sender, seq);
     }
   }
+  for (const auto& [channel, tracker] : sequences) {
+    ChannelSummary& s = summary.channels[channel];
+    s.sequence_gaps = tracker.counts().dropped;
+    s.out_of_order = tracker.counts().out_of_order;
+    s.sequence_resets = tracker.counts().sequence_resets;
+  }
+  summary.damage = reader.damage();
   return summary;
 }
 
-std::string format_summary(const std::map<std::string, ChannelSummary>& summary) {
+std::string format_summary(const LogSummary& summary) {
   std::string out;
   char line[512];
-  std::snprintf(line, sizeof(line), "%-32s %-18s %9s %11s %8s %7s %6s %6s\n", "channel", "type",
-                "messages", "MB", "Hz", "undecod", "gaps", "order");
+  std::snprintf(line, sizeof(line), "%-32s %-18s %9s %11s %8s %7s %6s %6s %6s\n", "channel", "type",
+                "messages", "MB", "Hz", "undecod", "gaps", "order", "resets");
   out += line;
-  for (const auto& [channel, s] : summary) {
+  for (const auto& [channel, s] : summary.channels) {
     const double duration_s = (s.last_utime - s.first_utime) * 1e-6;
     const double hz = duration_s > 0 ? (s.messages - 1) / duration_s : 0.0;
-    std::snprintf(line, sizeof(line), "%-32s %-18s %9lld %11.3f %8.2f %7lld %6lld %6lld\n",
+    std::snprintf(line, sizeof(line), "%-32s %-18s %9lld %11.3f %8.2f %7lld %6lld %6lld %6lld\n",
                   channel.c_str(), s.type.c_str(), static_cast<long long>(s.messages),
                   s.bytes / 1e6, hz, static_cast<long long>(s.decode_errors),
-                  static_cast<long long>(s.sequence_gaps), static_cast<long long>(s.out_of_order));
+                  static_cast<long long>(s.sequence_gaps), static_cast<long long>(s.out_of_order),
+                  static_cast<long long>(s.sequence_resets));
     out += line;
+  }
+  const transport::LogDamage& damage = summary.damage;
+  if (!damage.any()) {
+    return out;
+  }
+  out += "damaged log: " + describe_damage(damage) + "\n";
+  for (const transport::SkippedRegion& region : damage.regions) {
+    out += "  corrupt region at byte offset " + std::to_string(region.offset) + ": " +
+           std::to_string(region.bytes) + " bytes skipped\n";
+  }
+  const int64_t unlisted = damage.corrupt_regions - static_cast<int64_t>(damage.regions.size());
+  if (unlisted > 0) {
+    out += "  ... and " + std::to_string(unlisted) + " more corrupt regions\n";
+  }
+  return out;
+}
+
+std::string describe_damage(const transport::LogDamage& damage) {
+  std::string out = std::to_string(damage.corrupt_regions) + " corrupt regions, " +
+                    std::to_string(damage.bytes_skipped) + " bytes skipped";
+  if (damage.truncated_end) {
+    out += ", last event cut short at byte offset " + std::to_string(damage.truncated_offset);
   }
   return out;
 }

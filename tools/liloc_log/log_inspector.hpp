@@ -1,10 +1,13 @@
 #pragma once
 // Per-channel summary of an LCM log: message type (recognized by its fingerprint),
-// count, size, rate, decode failures and sequence gaps per sender.
+// count, size, rate, decode failures and sequence gaps per sender; and the log's damage
+// (corrupt regions and a truncated end, with their byte offsets).
 
 #include <cstdint>
 #include <map>
 #include <string>
+
+#include "transport/log_file.hpp"
 
 namespace liloc::tools {
 
@@ -14,15 +17,24 @@ struct ChannelSummary {
   int64_t bytes = 0;
   int64_t first_utime = 0;
   int64_t last_utime = 0;
-  int64_t decode_errors = 0;  // fingerprint known, bytes do not decode
-  int64_t sequence_gaps = 0;  // missing header.seq values, summed over senders
-  int64_t out_of_order = 0;   // header.seq not above the sender's previous one
+  int64_t decode_errors = 0;    // fingerprint known, bytes do not decode
+  int64_t sequence_gaps = 0;    // missing header.seq values, summed over senders
+  int64_t out_of_order = 0;     // header.seq not above the sender's previous one
+  int64_t sequence_resets = 0;  // a sender restarted (the transport's rules)
+};
+
+struct LogSummary {
+  std::map<std::string, ChannelSummary> channels;
+  transport::LogDamage damage;
 };
 
 // Reads the whole log; throws std::runtime_error naming the file if it cannot be read.
-std::map<std::string, ChannelSummary> summarize_log(const std::string& path);
+LogSummary summarize_log(const std::string& path);
 
-// A table for humans; one line per channel.
-std::string format_summary(const std::map<std::string, ChannelSummary>& summary);
+// A table for humans, one line per channel, then the damage with byte offsets.
+std::string format_summary(const LogSummary& summary);
+
+// One line: "2 corrupt regions, 310 bytes skipped, last event cut short at byte 9000".
+std::string describe_damage(const transport::LogDamage& damage);
 
 }  // namespace liloc::tools

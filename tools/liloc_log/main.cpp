@@ -4,6 +4,10 @@
 //   liloc_log play LOG [--speed S]        publish a log (0 = as fast as possible)
 //   liloc_log record LOG [--duration-s T] record the bus, like lcm-logger
 //   liloc_log sample LOG                  one message of every type (checks lcm-spy)
+//
+// Each command exits 1 if data was lost: info and play on a damaged log (corrupt regions,
+// a truncated end), play on messages the bus refused, record on messages it could not
+// decode, take or write, sample on a failed write.
 
 #include <spdlog/spdlog.h>
 
@@ -26,8 +30,33 @@ const char* kUsage =
     "usage: liloc_log <info|play|record|sample> LOG [options]   (liloc_log <command> --help)\n";
 
 int info(const std::string& path) {
-  std::cout << tools::format_summary(tools::summarize_log(path));
-  return 0;
+  const tools::LogSummary summary = tools::summarize_log(path);
+  std::cout << tools::format_summary(summary);
+  return summary.damage.any() ? 1 : 0;
+}
+
+// The exit code of a command that moves messages: 1, after saying why, if any were lost.
+int exit_code(const std::string& source, const transport::LogDamage* damage,
+              int64_t messages_lost) {
+  bool lost = false;
+  if (damage != nullptr && damage->any()) {
+    spdlog::error("{}: damaged log: {}", source, tools::describe_damage(*damage));
+    lost = true;
+  }
+  if (messages_lost > 0) {
+    spdlog::error("{} messages lost (see the errors above)", messages_lost);
+    lost = true;
+  }
+  return lost ? 1 : 0;
+}
+
+// What a recorder's subscriptions could not take: too large, undecodable, or not written.
+int64_t messages_not_recorded(const transport::Transport& bus) {
+  int64_t lost = 0;
+  for (const auto& [channel, s] : bus.stats()) {
+    lost += s.oversized + s.decode_errors + s.handler_errors;
+  }
+  return lost;
 }
 
 // Writes ten numbered samples of Msg (only messages with a header carry a number).
@@ -50,6 +79,7 @@ int sample(const std::string& path, const std::string& robot_id) {
 #define LILOC_WRITE_SAMPLE(type) write_samples<liloc::type>(writer, robot_id, utime);
   LILOC_FOR_EACH_LCM_TYPE(LILOC_WRITE_SAMPLE)
 #undef LILOC_WRITE_SAMPLE
+  writer.flush();
   spdlog::info("wrote {} messages to {}", writer.events_written(), path);
   return 0;
 }
@@ -94,10 +124,10 @@ int main(int argc, char** argv) {
     config.url = url;
     transport::Transport bus(config);
     if (command == "play") {
-      const int64_t n =
+      const transport::ReplayResult result =
           transport::replay_log(path, bus, {speed}, [] { return !shutdown_requested(); });
-      spdlog::info("published {} messages from {}", n, path);
-      return 0;
+      spdlog::info("published {} messages from {}", result.published, path);
+      return exit_code(path, &result.damage, bus.publish_errors());
     }
     transport::LogWriter writer(path);
     writer.record(bus, channels);
@@ -111,7 +141,8 @@ int main(int argc, char** argv) {
         break;
       }
     }
+    writer.flush();
     spdlog::info("recorded {} messages to {}", writer.events_written(), path);
-    return 0;
+    return exit_code(url, bus.log_damage(), messages_not_recorded(bus));
   });
 }

@@ -72,7 +72,14 @@ DriveResult run_odometry(const SystemConfig& config, const std::string& log_path
           spdlog::info("{} keyframes, {} sweeps", drive.odometry_keyframes.size(), drive.scans);
         }
       });
-  transport::replay_log(log_path, bus, {});
+  const transport::ReplayResult replay = transport::replay_log(log_path, bus, {});
+  if (replay.damage.any()) {
+    // A map must not be built from part of a drive without saying so.
+    throw std::runtime_error(
+        log_path + ": damaged log (" + std::to_string(replay.damage.corrupt_regions) +
+        " corrupt region(s), " + std::to_string(replay.damage.bytes_skipped) + " bytes skipped" +
+        (replay.damage.truncated_end ? ", the last event truncated" : "") + "); no map built");
+  }
   odometry.finish();
   bus.drain();
   drive.counters = odometry.counters();

@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
     }
     sim::scale_session_lengths(config.sessions, length_scale);
     if (print_config) {
-      std::printf("sim:\n%s\n", dump_config(config).c_str());
+      std::printf("%s\n", dump_config(config, "sim").c_str());
       return 0;
     }
     const std::vector<std::string> models =

@@ -1,0 +1,418 @@
+#include "initializer/pose_initializer.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "math/so3.hpp"
+#include "pointcloud/voxel_grid.hpp"
+
+namespace liloc {
+namespace {
+
+constexpr double kPi = 3.141592653589793;
+constexpr double kDistinctYawRad = kPi / 6;  // candidates 30 degrees apart are distinct poses
+
+double yaw_of(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
+double wrap(double a) { return std::remainder(a, 2.0 * kPi); }
+Eigen::Matrix3d rz(double yaw) { return so3::exp(Eigen::Vector3d(0, 0, yaw)); }
+
+// Two poses of the same place, as far as initialization tells places apart.
+bool same_place(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double distinct_m) {
+  return (a.translation() - b.translation()).head<2>().norm() < distinct_m &&
+         std::abs(wrap(yaw_of(a.linear()) - yaw_of(b.linear()))) < kDistinctYawRad;
+}
+
+double ms_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+}
+
+std::string describe(const InitCandidate& c) {
+  std::ostringstream out;
+  out.precision(3);
+  out << "keyframe " << c.keyframe_id << " (submap " << c.submap_id << ", descriptor "
+      << c.descriptor_distance << ")";
+  if (c.verified) {
+    out << " at (" << c.T_map_body.translation().x() << ", " << c.T_map_body.translation().y()
+        << "): fitness " << c.fitness_m << " m, overlap " << c.overlap;
+  }
+  return out.str();
+}
+
+}  // namespace
+
+void InitializerConfig::validate() const {
+  if (!(search_radius_m > 0) || max_search_submaps < 1 || retrieval_candidates < 1 ||
+      verify_candidates < 1 || !(distinct_m > 0) || !(target_radius_m > 0) ||
+      max_query_points < 100) {
+    throw std::invalid_argument(
+        "search_radius_m, distinct_m and target_radius_m must be positive, the candidate counts "
+        "at least 1, max_query_points at least 100");
+  }
+  if (!(max_descriptor_distance > 0 && max_descriptor_distance <= 1) || !(max_fitness_m > 0) ||
+      !(min_overlap > 0 && min_overlap <= 1) ||
+      !(max_alternative_ratio > 0 && max_alternative_ratio <= 1) ||
+      independent_correspondences < 1) {
+    throw std::invalid_argument(
+        "max_descriptor_distance, min_overlap and max_alternative_ratio must be in (0, 1], "
+        "max_fitness_m positive, independent_correspondences at least 1");
+  }
+  const size_t stages = stage_voxel_m.size();
+  if (stages == 0 || stage_correspondence_m.size() != stages ||
+      stage_plane_thickness_m.size() != stages) {
+    throw std::invalid_argument(
+        "stage_voxel_m, stage_correspondence_m and stage_plane_thickness_m need one value per "
+        "registration stage, at least one");
+  }
+  for (size_t s = 0; s < stages; ++s) {
+    if (!(stage_voxel_m[s] > 0) || !(stage_correspondence_m[s] > 0) ||
+        !(stage_plane_thickness_m[s] > 0)) {
+      throw std::invalid_argument("registration stages must be positive");
+    }
+  }
+  registration.validate();
+}
+
+SubmapTargets::SubmapTargets(Source source, size_t capacity)
+    : source_(std::move(source)), capacity_(std::max<size_t>(capacity, 1)) {}
+
+std::vector<int64_t> SubmapTargets::submaps_around(const MapIndex& index,
+                                                   const Eigen::Vector3d& position,
+                                                   double radius_m) {
+  std::vector<int64_t> ids;
+  for (const KdTree::Hit& hit : index.submaps().submaps_within(position, radius_m)) {
+    ids.push_back(hit.id);
+  }
+  if (ids.empty()) {
+    for (const KdTree::Hit& hit : index.submaps().nearest_submaps(position, 1)) {
+      ids.push_back(hit.id);
+    }
+  }
+  std::sort(ids.begin(), ids.end());
+  return ids;
+}
+
+std::vector<int64_t> SubmapTargets::missing(const std::vector<int64_t>& ids) const {
+  std::vector<int64_t> out;
+  for (const int64_t id : ids) {
+    if (!source_(id)) {
+      out.push_back(id);
+    }
+  }
+  return out;
+}
+
+std::shared_ptr<const VoxelHashMap> SubmapTargets::target(const std::vector<int64_t>& ids,
+                                                          double voxel_m) const {
+  const Key key(ids, voxel_m);
+  for (auto it = cache_.begin(); it != cache_.end(); ++it) {
+    if (it->first == key) {
+      cache_.splice(cache_.begin(), cache_, it);  // most recently used first
+      return cache_.front().second;
+    }
+  }
+  VoxelMapConfig config;
+  config.voxel_m = voxel_m;
+  config.min_point_spacing_m = voxel_m / 5.0;
+  config.keep_radius_m = 1e6;
+  auto map = std::make_shared<VoxelHashMap>(config);
+  for (const int64_t id : ids) {
+    const std::shared_ptr<const std::vector<Eigen::Vector3f>> points = source_(id);
+    if (!points) {
+      return nullptr;
+    }
+    map->insert(*points);
+  }
+  cache_.emplace_front(key, map);
+  if (cache_.size() > capacity_) {
+    cache_.pop_back();
+  }
+  return map;
+}
+
+PoseInitializer::PoseInitializer(const InitializerConfig& config,
+                                 const PolarDescriptorConfig& descriptor)
+    : config_(config), descriptor_(descriptor) {
+  config_.validate();
+  descriptor_.validate();
+}
+
+PoseInitializer::Query PoseInitializer::prepare(const InitQuery& query) const {
+  Query q;
+  const Eigen::Matrix3d R_odom_body = query.T_odom_body.linear();
+  q.descriptor = make_level_polar_descriptor(query.cloud_body, R_odom_body, descriptor_);
+  q.R_level_body = rz(-yaw_of(R_odom_body)) * R_odom_body;
+  const std::vector<Eigen::Vector3f> sparse =
+      voxel_downsample(query.cloud_body, static_cast<float>(config_.stage_voxel_m.back())).points;
+  const size_t stride = std::max<size_t>(1, sparse.size() / config_.max_query_points);
+  for (size_t i = 0; i < sparse.size(); i += stride) {
+    q.points.push_back(sparse[i]);
+  }
+  return q;
+}
+
+std::vector<InitCandidate> PoseInitializer::rank(
+    const Query& query, const std::vector<const MapIndex::Keyframe*>& keyframes,
+    const std::optional<CoarsePose>& coarse) const {
+  const double sector_rad = 2.0 * kPi / descriptor_.sectors;
+  std::vector<InitCandidate> all;
+  for (const MapIndex::Keyframe* kf : keyframes) {
+    // Eq. 4: the descriptor distance, minimized over column shifts; the shift is the yaw
+    // of R_candidate_query about gravity.
+    const DescriptorMatch match = compare(query.descriptor, kf->descriptor);
+    if (match.distance > config_.max_descriptor_distance) {
+      continue;
+    }
+    InitCandidate c;
+    c.keyframe_id = kf->id;
+    c.submap_id = kf->submap_id;
+    c.descriptor_distance = match.distance;
+    c.yaw_rad = match.yaw_rad;
+    const double yaw = yaw_of(kf->T_map_body.linear()) + match.yaw_rad;
+    if (coarse && std::abs(wrap(yaw - coarse->yaw_rad)) >
+                      std::max(3.0 * coarse->sigma_yaw_rad, 2.0 * sector_rad)) {
+      continue;  // a heading the coarse pose rules out
+    }
+    c.T_map_body_guess = se3::make(rz(yaw) * query.R_level_body, kf->T_map_body.translation());
+    all.push_back(c);
+  }
+  std::sort(all.begin(), all.end(), [](const InitCandidate& a, const InitCandidate& b) {
+    return a.descriptor_distance < b.descriptor_distance;
+  });
+  std::vector<InitCandidate> kept;
+  for (const InitCandidate& c : all) {
+    if (static_cast<int>(kept.size()) >= config_.verify_candidates) {
+      break;
+    }
+    const bool seen = std::any_of(kept.begin(), kept.end(), [&](const InitCandidate& k) {
+      return same_place(k.T_map_body_guess, c.T_map_body_guess, config_.distinct_m);
+    });
+    if (!seen) {
+      kept.push_back(c);
+    }
+  }
+  return kept;
+}
+
+void PoseInitializer::register_candidate(
+    const Query& query, InitCandidate& c,
+    const std::vector<std::shared_ptr<const VoxelHashMap>>& stages) const {
+  Eigen::Isometry3d T = c.T_map_body_guess;
+  RegistrationResult result;
+  for (size_t s = 0; s < stages.size(); ++s) {
+    RegistrationConfig stage = config_.registration;
+    stage.max_correspondence_m = config_.stage_correspondence_m[s];
+    stage.max_plane_thickness_m = config_.stage_plane_thickness_m[s];
+    result = register_point_to_plane(query.points, *stages[s], T, std::nullopt, stage);
+    T = result.T_target_source;
+  }
+  c.verified = true;
+  c.T_map_body = T;
+  c.fitness_m = result.rms_residual_m;
+  c.overlap = query.points.empty() ? 0.0
+                                   : static_cast<double>(result.correspondences) /
+                                         static_cast<double>(query.points.size());
+  c.degenerate = result.degenerate;
+  // The registration counts every match as independent; they are not (they share planes).
+  const double inflation = std::max(
+      1.0, static_cast<double>(result.correspondences) / config_.independent_correspondences);
+  Matrix6d covariance = Matrix6d::Identity();
+  if (result.information.allFinite() && result.information.determinant() > 0.0) {
+    covariance = inflation * result.information.inverse();
+  }
+  c.covariance = 0.5 * (covariance + covariance.transpose());
+}
+
+InitResult PoseInitializer::verify(const MapIndex& index, const Query& query,
+                                   std::vector<InitCandidate> candidates,
+                                   const SubmapTargets& targets, bool global) const {
+  InitResult result;
+  result.method = global ? "global" : "coarse_to_fine";
+  std::vector<std::vector<int64_t>> target_ids;
+  for (const InitCandidate& c : candidates) {
+    target_ids.push_back(SubmapTargets::submaps_around(index, c.T_map_body_guess.translation(),
+                                                       config_.target_radius_m));
+    for (const int64_t id : targets.missing(target_ids.back())) {
+      if (std::find(result.missing_submaps.begin(), result.missing_submaps.end(), id) ==
+          result.missing_submaps.end()) {
+        result.missing_submaps.push_back(id);
+      }
+    }
+  }
+  if (!result.missing_submaps.empty()) {
+    result.status = InitResult::Status::kNeedsSubmaps;
+    result.reason = std::to_string(result.missing_submaps.size()) + " submap(s) to fetch first";
+    result.candidates = std::move(candidates);
+    return result;
+  }
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    std::vector<std::shared_ptr<const VoxelHashMap>> stages;
+    for (const double voxel_m : config_.stage_voxel_m) {
+      stages.push_back(targets.target(target_ids[i], voxel_m));
+    }
+    register_candidate(query, candidates[i], stages);
+    InitCandidate& c = candidates[i];
+    if (c.fitness_m > config_.max_fitness_m) {
+      c.rejected = "fitness " + std::to_string(c.fitness_m) + " m above " +
+                   std::to_string(config_.max_fitness_m);
+    } else if (c.overlap < config_.min_overlap) {
+      c.rejected =
+          "overlap " + std::to_string(c.overlap) + " below " + std::to_string(config_.min_overlap);
+    }
+  }
+  // The answer: the passing candidate with the most overlap.
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const InitCandidate& a, const InitCandidate& b) {
+                     if (a.rejected.empty() != b.rejected.empty()) {
+                       return a.rejected.empty();
+                     }
+                     return a.overlap > b.overlap;
+                   });
+  if (candidates.empty() || !candidates.front().rejected.empty()) {
+    result.reason = candidates.empty()
+                        ? "no map keyframe's descriptor is within " +
+                              std::to_string(config_.max_descriptor_distance) + " of the query's"
+                        : "no candidate passed verification: best " + describe(candidates.front()) +
+                              ": " + candidates.front().rejected;
+    result.candidates = std::move(candidates);
+    return result;
+  }
+  InitCandidate& best = candidates.front();
+  if (global) {
+    // The best distinct alternative, verified: it must clearly lose.
+    for (size_t i = 1; i < candidates.size(); ++i) {
+      InitCandidate& other = candidates[i];
+      if (!other.verified || same_place(other.T_map_body, best.T_map_body, config_.distinct_m)) {
+        continue;
+      }
+      if (other.overlap > config_.max_alternative_ratio * best.overlap) {
+        result.reason = "ambiguous: " + describe(best) + " and " + describe(other);
+        best.rejected = other.rejected = "ambiguous with another place";
+        result.candidates = std::move(candidates);
+        return result;
+      }
+      break;
+    }
+  }
+  for (size_t i = 1; i < candidates.size(); ++i) {
+    if (candidates[i].rejected.empty()) {
+      candidates[i].rejected = "less overlap than the answer";
+    }
+  }
+  result.status = InitResult::Status::kLocalized;
+  result.reason = "localized at " + describe(best);
+  result.best = best;
+  result.candidates = std::move(candidates);
+  return result;
+}
+
+InitResult PoseInitializer::coarse_to_fine(const MapIndex& index, const InitQuery& query,
+                                           const CoarsePose& coarse,
+                                           const SubmapTargets& targets) const {
+  const auto start = std::chrono::steady_clock::now();
+  const Query q = prepare(query);
+  // The submaps around the coarse position (Tree_m), then their keyframes.
+  const Eigen::Vector3d position(coarse.x_m, coarse.y_m, 0.0);
+  const double radius = std::max(config_.search_radius_m, 3.0 * coarse.sigma_xy_m + 10.0);
+  std::vector<KdTree::Hit> submaps = index.submaps().submaps_within(position, radius);
+  if (submaps.empty()) {
+    submaps = index.submaps().nearest_submaps(position, 1);
+  }
+  if (static_cast<int>(submaps.size()) > config_.max_search_submaps) {
+    submaps.resize(static_cast<size_t>(config_.max_search_submaps));
+  }
+  std::vector<const MapIndex::Keyframe*> keyframes;
+  for (const MapIndex::Keyframe& kf : index.keyframes()) {
+    const bool in_submap = std::any_of(submaps.begin(), submaps.end(),
+                                       [&](const KdTree::Hit& h) { return h.id == kf.submap_id; });
+    if (in_submap && (kf.T_map_body.translation() - position).head<2>().norm() <= radius) {
+      keyframes.push_back(&kf);
+    }
+  }
+  InitResult result = verify(index, q, rank(q, keyframes, coarse), targets, false);
+  result.time_ms = ms_since(start);
+  return result;
+}
+
+InitResult PoseInitializer::global(const MapIndex& index, const InitQuery& query,
+                                   const SubmapTargets& targets) const {
+  const auto start = std::chrono::steady_clock::now();
+  const Query q = prepare(query);
+  // Every keyframe ranked by its retrieval key's distance to the query's; the best
+  // retrieval_candidates go on to the descriptor's distance.
+  const std::vector<float> key = retrieval_key(q.descriptor);
+  std::vector<std::pair<float, const MapIndex::Keyframe*>> ranked;
+  ranked.reserve(index.keyframes().size());
+  for (const MapIndex::Keyframe& kf : index.keyframes()) {
+    float d = 0.0f;
+    for (size_t i = 0; i < key.size(); ++i) {
+      d += (key[i] - kf.key[i]) * (key[i] - kf.key[i]);
+    }
+    ranked.emplace_back(d, &kf);
+  }
+  const size_t n = std::min(ranked.size(), static_cast<size_t>(config_.retrieval_candidates));
+  std::partial_sort(ranked.begin(), ranked.begin() + static_cast<ptrdiff_t>(n), ranked.end(),
+                    [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<const MapIndex::Keyframe*> keyframes;
+  for (size_t i = 0; i < n; ++i) {
+    keyframes.push_back(ranked[i].second);
+  }
+  InitResult result = verify(index, q, rank(q, keyframes, std::nullopt), targets, true);
+  result.time_ms = ms_since(start);
+  return result;
+}
+
+std::optional<Eigen::Isometry3d> HypothesisVoter::add(
+    const InitQuery& query, const std::vector<InitCandidate>& candidates) {
+  std::vector<Eigen::Isometry3d> hypotheses;
+  for (const InitCandidate& c : candidates) {
+    if (c.verified && (c.rejected.empty() || c.rejected == "ambiguous with another place")) {
+      hypotheses.push_back(c.T_map_body * query.T_odom_body.inverse());
+    }
+  }
+  keyframes_.push_back(std::move(hypotheses));
+  while (static_cast<int>(keyframes_.size()) > config_.max_keyframes) {
+    keyframes_.pop_front();
+  }
+  const auto agree = [&](const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+    return (a.translation() - b.translation()).norm() <= config_.agree_m &&
+           se3::rotation_angle(a.inverse() * b) <= config_.agree_rad;
+  };
+  // Keyframes with a hypothesis that agrees with h.
+  const auto support = [&](const Eigen::Isometry3d& h) {
+    int votes = 0;
+    for (const std::vector<Eigen::Isometry3d>& keyframe : keyframes_) {
+      votes += std::any_of(keyframe.begin(), keyframe.end(),
+                           [&](const Eigen::Isometry3d& g) { return agree(g, h); });
+    }
+    return votes;
+  };
+  for (const Eigen::Isometry3d& h : keyframes_.back()) {
+    if (support(h) < config_.votes_needed) {
+      continue;
+    }
+    bool rival = false;
+    for (const std::vector<Eigen::Isometry3d>& keyframe : keyframes_) {
+      for (const Eigen::Isometry3d& g : keyframe) {
+        rival = rival || (!agree(g, h) && support(g) >= config_.votes_needed);
+      }
+    }
+    if (!rival) {
+      return h;
+    }
+  }
+  return std::nullopt;
+}
+
+std::string HypothesisVoter::summary() const {
+  size_t hypotheses = 0;
+  for (const auto& keyframe : keyframes_) {
+    hypotheses += keyframe.size();
+  }
+  return std::to_string(keyframes_.size()) + " keyframe(s) voting, " + std::to_string(hypotheses) +
+         " hypotheses";
+}
+
+}  // namespace liloc
