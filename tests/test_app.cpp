@@ -3,12 +3,14 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <csignal>
 #include <mutex>
 #include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "app/child_process.hpp"
 #include "app/command_line.hpp"
 #include "app/process_memory.hpp"
 #include "app/program.hpp"
@@ -195,4 +197,19 @@ TEST(ProcessMemory, GrowsWithAllocationsAndIsZeroForNoProcess) {
 }
 
 }  // namespace
+// A child's exit status comes back; a signal stops one that runs on; one that outlives its
+// deadline is killed.
+TEST(ChildProcess, ReportsExitStatusAndStopsOrKills) {
+  EXPECT_EQ(ChildProcess("/bin/sh", {"-c", "exit 3"}).wait(10.0), 3);
+  EXPECT_EQ(ChildProcess("/bin/sleep", {"30"}).stop(SIGINT, 10.0), 128 + SIGINT);
+  ChildProcess deaf([] {
+    std::signal(SIGINT, SIG_IGN);
+    std::this_thread::sleep_for(std::chrono::seconds(30));
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // it ignores SIGINT by now
+  EXPECT_EQ(deaf.stop(SIGINT, 0.3), -1);
+  EXPECT_EQ(ChildProcess([] { throw std::runtime_error("no"); }).wait(10.0), 1);
+  EXPECT_EQ(ChildProcess("/nonexistent/program", {}).wait(10.0), 127);
+}
+
 }  // namespace liloc

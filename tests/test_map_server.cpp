@@ -6,7 +6,6 @@
 
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -18,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "app/child_process.hpp"
 #include "bridge/map_conversions.hpp"
 #include "liloc/status_t.hpp"
 #include "map_test_data.hpp"
@@ -40,52 +40,6 @@ std::string url() {
   return "udpm://239.255.76.67:" + std::to_string(7800 + 10 * (::getpid() % 20)) +
          "?ttl=0&recv_buf_size=2097152";
 }
-
-// The server process for as long as the test runs: stopped (SIGINT) by stop(), or
-// killed when a failed assertion leaves the test early, so that no orphan keeps the
-// ports or ctest's output pipe.
-class ServerProcess {
- public:
-  explicit ServerProcess(const std::string& map_dir) {
-    const std::string bus = url();
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      ::execl(LILOC_MAP_SERVER, LILOC_MAP_SERVER, "--config", LILOC_SOURCE_DIR "/config/liloc.yaml",
-              "--map", map_dir.c_str(), "--lcm-url", bus.c_str(), "--log-level", "warn",
-              static_cast<char*>(nullptr));
-      ::_exit(127);
-    }
-  }
-  ~ServerProcess() {
-    if (pid_ > 0) {
-      ::kill(pid_, SIGKILL);
-      ::waitpid(pid_, nullptr, 0);
-    }
-  }
-  ServerProcess(const ServerProcess&) = delete;
-  ServerProcess& operator=(const ServerProcess&) = delete;
-
-  bool started() const { return pid_ > 0; }
-
-  // SIGINT, then its exit status within timeout_s, or -1 (then killed).
-  int stop(double timeout_s) {
-    ::kill(pid_, SIGINT);
-    const Clock::time_point end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                                     std::chrono::duration<double>(timeout_s));
-    while (Clock::now() < end) {
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    }
-    return -1;  // killed by the destructor
-  }
-
- private:
-  pid_t pid_ = -1;
-};
 
 class Robot {
  public:
@@ -156,8 +110,9 @@ TEST(MapServerProcess, ServesRobotsRefusesBadInputAndStopsCleanly) {
       ::testing::TempDir() + "liloc_map_server_process_" + std::to_string(::getpid());
   fs::remove_all(dir);
   const std::map<int64_t, PointCloud> clouds = test::write_map(dir + "/map");
-  ServerProcess server(dir + "/map");
-  ASSERT_TRUE(server.started());
+  // Killed if an assertion ends the test early, so that no orphan keeps the ports.
+  ChildProcess server(LILOC_MAP_SERVER, {"--config", LILOC_SOURCE_DIR "/config/liloc.yaml", "--map",
+                                         dir + "/map", "--lcm-url", url(), "--log-level", "warn"});
   Robot robot;
 
   // Where am I: the nearest submap, no clouds. The server is up once it answers.
@@ -236,7 +191,7 @@ TEST(MapServerProcess, ServesRobotsRefusesBadInputAndStopsCleanly) {
   // are on disk. SIGINT: a clean exit.
   EXPECT_TRUE(robot.wait([&] { return robot.counter("submap_clouds_computed") >= 2; }, 10.0))
       << "submap_clouds_computed " << robot.counter("submap_clouds_computed");
-  EXPECT_EQ(server.stop(15.0), 0);
+  EXPECT_EQ(server.stop(SIGINT, 15.0), 0);
   size_t files = 0;
   for (const auto& entry : fs::directory_iterator(dir + "/map/derived/submap_clouds")) {
     files += entry.path().extension() == ".bin" ? 1 : 0;

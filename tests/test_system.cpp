@@ -58,6 +58,7 @@ TEST(SystemConfig, RefusesImpossibleValuesNamingThem) {
                       "odometry sigmas must be positive");
   expect_config_error("map_server:\n  service:\n    allowed_robots: [\"a,b\"]\n",
                       "allowed robot 'a,b' is not a valid name");
+  expect_config_error("channels:\n  imu: \"\"\n", "imu '' must be 1-40 letters");
 }
 
 // Each setting has one home: the descriptor and the submap rule (Eq. 2) are system

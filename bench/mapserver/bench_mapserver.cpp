@@ -12,7 +12,6 @@
 
 #include <signal.h>
 #include <spdlog/spdlog.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -29,6 +28,7 @@
 #include <thread>
 #include <vector>
 
+#include "app/child_process.hpp"
 #include "app/process_memory.hpp"
 #include "app/program.hpp"
 #include "bridge/map_conversions.hpp"
@@ -37,10 +37,10 @@
 #include "eval/latency_stats.hpp"
 #include "liloc/status_t.hpp"
 #include "map/submap_database.hpp"
+#include "node/reply_route.hpp"
 #include "storage/map_store.hpp"
 #include "storage/submap_cloud_files.hpp"
 #include "system/system_config.hpp"
-#include "node/reply_route.hpp"
 #include "transport/channels.hpp"
 #include "transport/transport.hpp"
 
@@ -97,43 +97,14 @@ void prepare_reply_clouds(const std::string& map_dir, const std::string& config_
                std::chrono::duration<double>(Clock::now() - start).count());
 }
 
-// Runs `work` in a child process, which exits 0 when it returns and 1 when it throws.
-pid_t fork_child(const std::function<void()>& work) {
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    try {
-      work();
-      ::_exit(0);
-    } catch (const std::exception& e) {
-      spdlog::error("{}", e.what());
-    }
-    ::_exit(1);
-  }
-  if (pid < 0) {
-    throw std::runtime_error("fork failed");
-  }
-  return pid;
-}
-
 // Runs `work` in a child process and waits for it. Writing a tiled map holds all its clouds
 // (gigabytes) at once; in this process the heap it leaves behind slowed the robots' reply
 // decoding measurably (10x map: reply p99 37-44 ms right after writing, 24 ms when the same
 // map was served by a fresh process).
 void in_child_process(const std::function<void()>& work) {
-  const pid_t pid = fork_child(work);
-  int status = 0;
-  if (::waitpid(pid, &status, 0) != pid || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+  if (ChildProcess(work).wait(3600.0) != 0) {
     throw std::runtime_error("preparing the map in a child process failed");
   }
-}
-
-pid_t start_server(const std::string& server, const std::string& config, const std::string& map,
-                   const std::string& url) {
-  return fork_child([&] {
-    ::execl(server.c_str(), server.c_str(), "--config", config.c_str(), "--map", map.c_str(),
-            "--lcm-url", url.c_str(), "--log-level", "warn", static_cast<char*>(nullptr));
-    throw std::runtime_error("exec " + server + ": " + std::strerror(errno));
-  });
 }
 
 // A stand-in for the server that answers every request at once with one small message
@@ -417,8 +388,12 @@ Run run_once(const BenchOptions& options, const std::string& map_dir, int copies
                                   std::to_string(::getpid()) + ".yaml";
   std::ofstream(config_path) << dump_config(config) << "\n";
   const int reply_ports = config.transport.reply_ports;
-  const pid_t server = echo ? fork_child([&] { run_echo_server(url, reply_ports); })
-                            : start_server(options.server_path, config_path, map_dir, url);
+  const std::unique_ptr<ChildProcess> server =
+      echo ? std::make_unique<ChildProcess>([&] { run_echo_server(url, reply_ports); })
+           : std::make_unique<ChildProcess>(
+                 options.server_path,
+                 std::vector<std::string>{"--config", config_path, "--map", map_dir, "--lcm-url",
+                                          url, "--log-level", "warn"});
   ServerStatusListener status(url, config.map_server.status_channel);
   std::vector<std::unique_ptr<Robot>> fleet;
   for (int r = 0; r < options.robots; ++r) {
@@ -433,8 +408,6 @@ Run run_once(const BenchOptions& options, const std::string& map_dir, int copies
     up = fleet.front()->ping(1.0);
   }
   if (!up) {
-    ::kill(server, SIGKILL);
-    ::waitpid(server, nullptr, 0);
     throw std::runtime_error("liloc_map_server did not answer within 60 s on " + url);
   }
   std::vector<std::thread> threads;
@@ -454,12 +427,11 @@ Run run_once(const BenchOptions& options, const std::string& map_dir, int copies
   run.echo = echo;
   run.steal_percent = 100.0 * static_cast<double>(cpu_after.steal - cpu_before.steal) /
                       static_cast<double>(std::max<int64_t>(1, cpu_after.total - cpu_before.total));
-  run.server = read_process_memory(std::to_string(server));
+  run.server = read_process_memory(std::to_string(server->pid()));
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // the last status
   run.server_worst_position_ms = status.worst_position_ms();
   run.server_worst_cloud_ms = status.worst_cloud_ms();
-  ::kill(server, SIGINT);
-  ::waitpid(server, nullptr, 0);
+  server->stop(SIGINT, 30.0);
   fs::remove(config_path);
 
   run.map_copies = copies;
