@@ -68,5 +68,11 @@ echo "== 7. the map server answering 4 robots at 10 Hz over loopback"
   --robots 4 --duration-s 5 --json "" --log-level warn
 
 echo
+echo "== 8. session B localized against the map of A, in one process: the initializer (coarse"
+echo "   pose 3 m off), then the egocentric factor graph; beside it the odometry alone"
+echo "   (the optimizer's process is not built yet: docs/optimizer.md)"
+"$BIN"/bin/bench_efg --data "$SIM/campus" --maps "$OUT/map" --lidars hdl32 --sessions B \
+  --variants full,ilm_only --json "" --log-level warn
+echo
 echo "Results in $OUT: map.png, odometry_B.png/.md/.json, map_report.json."
 echo "Browse live traffic with ./scripts/spy.sh (lcm-spy with liloc's types)."

@@ -179,7 +179,7 @@ TEST(MapSaver, ADeltaThatCannotBeSavedDoesNotBlockTheNext) {
   const std::string dir = fresh_directory("saver");
   test::write_map(dir);
   storage::MapStore store(dir);
-  MapSaver saver(store, store.load(), PolarDescriptorConfig{}, 5);
+  MapSaver saver(store, store.load(), 5);
   const auto delta = [](int64_t first_id, const std::string& session) {
     MapDelta d;
     for (int64_t id = first_id; id < first_id + 3; ++id) {
@@ -191,6 +191,7 @@ TEST(MapSaver, ADeltaThatCannotBeSavedDoesNotBlockTheNext) {
       auto cloud = std::make_shared<PointCloud>();
       cloud->push_back(Eigen::Vector3f::Zero(), 0.0f);
       d.clouds[id] = cloud;
+      d.descriptors[id] = encode(make_polar_descriptor(*cloud, PolarDescriptorConfig{}));
     }
     return d;
   };

@@ -44,7 +44,7 @@ struct ServiceFixture {
   }
   MapService service(MapServiceConfig config = full_clouds(),
                      const SubmapCloudStore* store = nullptr) {
-    return MapService(map, source(), config, SubmapConfig{}, store);
+    return MapService(map, source(), {}, config, SubmapConfig{}, PolarDescriptorConfig{}, store);
   }
 };
 

@@ -130,5 +130,18 @@ TEST(CompactCloud, SliceKeepsStepsAndCheckNamesBadClouds) {
   EXPECT_THROW(check_compact_cloud(bad), std::invalid_argument);
 }
 
+// A registration source of bounded cost: at most max_points, spread over the whole cloud.
+TEST(VoxelGrid, SparsePointsAreCappedAndSpread) {
+  PointCloud line;
+  for (int i = 0; i < 1000; ++i) {
+    line.push_back(Eigen::Vector3f(0.1f * static_cast<float>(i), 0.0f, 0.0f), 1.0f);
+  }
+  const std::vector<Eigen::Vector3f> few = sparse_points(line, 0.5f, 100);
+  EXPECT_EQ(few.size(), 100u);  // 200 voxels, every second
+  EXPECT_LT(few.front().x(), 0.5f);
+  EXPECT_GT(few.back().x(), 98.0f);
+  EXPECT_EQ(sparse_points(line, 0.5f, 1000).size(), 200u);
+}
+
 }  // namespace
 }  // namespace liloc

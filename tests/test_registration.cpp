@@ -1,12 +1,12 @@
 #include <gtest/gtest.h>
 
-#include <fstream>
 #include <limits>
 #include <random>
+#include <stdexcept>
 
-#include "dataset/pcd_scan_reader.hpp"
 #include "math/so3.hpp"
 #include "pointcloud/voxel_grid.hpp"
+#include "real_pair.hpp"
 #include "registration/point_to_plane_registration.hpp"
 
 namespace liloc {
@@ -172,33 +172,17 @@ TEST(Registration, EmptyMapLeavesTheGuess) {
   EXPECT_EQ(r.correspondences, 0);
 }
 
-Eigen::Isometry3d read_matrix(const std::string& path) {
-  std::ifstream in(path);
-  Eigen::Matrix4d m;
-  for (int i = 0; i < 16; ++i) {
-    in >> m(i / 4, i % 4);
-  }
-  Eigen::Isometry3d T;
-  T.matrix() = m;
-  return T;
-}
-
 std::vector<Eigen::Vector3f> read_cloud(const std::string& path, float voxel) {
-  const dataset::PcdScan pcd = dataset::read_pcd_scan(path, 0, 0.1f);
-  PointCloud cloud;
-  for (const LidarPoint& p : pcd.scan.points) {
-    cloud.push_back(p.position_m, p.intensity);
-  }
-  return voxel_downsample(cloud, voxel).points;
+  return test::RealPair::read(path, voxel).points;
 }
 
 // Real Velodyne scans (fast_gicp's sample pair): relative.txt takes the source onto the
 // target. Registration from the identity must recover it within 5 cm / 0.5 deg.
 TEST(Registration, RecoversTheRealPairWithinFiveCentimetresAndHalfADegree) {
-  const std::string dir = std::string(LILOC_SHARED_DATA_DIR) + "/real/fast_gicp_pair/";
-  const Eigen::Isometry3d T_target_source = read_matrix(dir + "relative.txt");
-  const VoxelHashMap map = map_of(read_cloud(dir + "251370668.pcd", 0.1f), 0.5);
-  const std::vector<Eigen::Vector3f> source = read_cloud(dir + "251371071.pcd", 0.3f);
+  const test::RealPair pair;
+  const Eigen::Isometry3d T_target_source = pair.T_target_source();
+  const VoxelHashMap map = map_of(read_cloud(pair.target_pcd, 0.1f), 0.5);
+  const std::vector<Eigen::Vector3f> source = read_cloud(pair.source_pcd, 0.3f);
   const RegistrationResult r = register_point_to_plane(source, map, Eigen::Isometry3d::Identity(),
                                                        std::nullopt, RegistrationConfig{});
   const Eigen::Isometry3d error = T_target_source.inverse() * r.T_target_source;
@@ -207,6 +191,18 @@ TEST(Registration, RecoversTheRealPairWithinFiveCentimetresAndHalfADegree) {
   // Sanity: the pose rests on many planes, not a lucky few. Only part of this real scan
   // forms planar patches at the map's density: 761 of its 4950 points match.
   EXPECT_GT(r.correspondences, static_cast<int>(source.size()) / 10);
+}
+
+TEST(RegistrationStages, NeedOneValueOfEachPerStage) {
+  RegistrationStages stages{{1.0, 0.5}, {1.5, 0.6}, {0.15, 0.06}};
+  EXPECT_NO_THROW(stages.validate());
+  const RegistrationConfig fine = stages.stage(1, RegistrationConfig{});
+  EXPECT_DOUBLE_EQ(fine.max_correspondence_m, 0.6);
+  EXPECT_DOUBLE_EQ(fine.max_plane_thickness_m, 0.06);
+  stages.plane_thickness_m.pop_back();
+  EXPECT_THROW(stages.validate(), std::invalid_argument);
+  EXPECT_THROW((RegistrationStages{{}, {}, {}}).validate(), std::invalid_argument);
+  EXPECT_THROW((RegistrationStages{{1.0}, {-1.0}, {0.1}}).validate(), std::invalid_argument);
 }
 
 }  // namespace

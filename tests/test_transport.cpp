@@ -133,7 +133,7 @@ TEST(Transport, EveryMessageTypeRoundTripsOverMemq) {
   }
   LILOC_FOR_EACH_LCM_TYPE(LILOC_ROUND_TRIP)
 #undef LILOC_ROUND_TRIP
-  EXPECT_EQ(types_with_header, 12);  // the channel messages; nested parts have no header
+  EXPECT_EQ(types_with_header, 14);  // the channel messages; nested parts have no header
 }
 
 TEST(Transport, WrongFingerprintIsCountedAndSkipped) {

@@ -11,7 +11,14 @@ namespace liloc {
 namespace {
 std::atomic<bool> g_shutdown{false};
 
-void on_signal(int) { g_shutdown = true; }
+// The first signal asks the program to stop at its next check; a second one, for a program
+// that does not check or is stuck, ends it as the default action would.
+void on_signal(int signal) {
+  if (g_shutdown.exchange(true)) {
+    std::signal(signal, SIG_DFL);
+    std::raise(signal);
+  }
+}
 }  // namespace
 
 void setup_logging(const std::string& level, const std::string& process_name) {

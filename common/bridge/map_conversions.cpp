@@ -239,4 +239,48 @@ liloc::map_info_t to_msg(const MapData& map, const MapServiceCounters& counters,
   return msg;
 }
 
+liloc::keyframe_descriptors_t to_msg(const KeyframeIndexPart& part, int64_t utime) {
+  liloc::keyframe_descriptors_t msg;
+  msg.header = make_header(utime, part.robot_id, "map");
+  msg.request_id = part.request_id;
+  msg.map_version = part.map_version;
+  msg.chunk_index = part.chunk_index;
+  msg.num_chunks = part.num_chunks;
+  for (const IndexedKeyframe& kf : part.keyframes) {
+    msg.keyframe_ids.push_back(kf.id);
+    msg.submap_ids.push_back(kf.submap_id);
+    msg.keyframe_poses.push_back(to_msg(kf.T_map_body));
+    msg.descriptor_offsets.push_back(static_cast<int32_t>(msg.descriptors.size()));
+    msg.descriptors.insert(msg.descriptors.end(), kf.descriptor->begin(), kf.descriptor->end());
+  }
+  msg.num_keyframes = static_cast<int32_t>(part.keyframes.size());
+  msg.num_bytes = static_cast<int32_t>(msg.descriptors.size());
+  return msg;
+}
+
+KeyframeIndexPart from_msg(const liloc::keyframe_descriptors_t& msg) {
+  KeyframeIndexPart part;
+  part.robot_id = msg.header.robot_id;
+  part.request_id = msg.request_id;
+  part.map_version = msg.map_version;
+  part.chunk_index = msg.chunk_index;
+  part.num_chunks = msg.num_chunks;
+  for (int32_t i = 0; i < msg.num_keyframes; ++i) {
+    const int32_t begin = msg.descriptor_offsets[i];
+    const int32_t end = i + 1 < msg.num_keyframes ? msg.descriptor_offsets[i + 1] : msg.num_bytes;
+    if (begin < 0 || end < begin || end > msg.num_bytes) {
+      throw std::invalid_argument("keyframe descriptors: offsets do not fit the " +
+                                  std::to_string(msg.num_bytes) + " bytes");
+    }
+    IndexedKeyframe kf;
+    kf.id = msg.keyframe_ids[i];
+    kf.submap_id = msg.submap_ids[i];
+    kf.T_map_body = from_msg(msg.keyframe_poses[i]);  // throws for a non-finite pose
+    kf.descriptor = std::make_shared<const std::vector<uint8_t>>(msg.descriptors.begin() + begin,
+                                                                 msg.descriptors.begin() + end);
+    part.keyframes.push_back(std::move(kf));
+  }
+  return part;
+}
+
 }  // namespace liloc::bridge

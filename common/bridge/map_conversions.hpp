@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 
+#include "liloc/keyframe_descriptors_t.hpp"
 #include "liloc/map_info_t.hpp"
 #include "liloc/map_update_t.hpp"
 #include "liloc/submap_request_t.hpp"
@@ -24,5 +25,9 @@ MapUpdatePart from_msg(const liloc::map_update_t& msg);
 liloc::map_update_t to_msg(const MapUpdatePart& part, int64_t utime);
 
 liloc::map_info_t to_msg(const MapData& map, const MapServiceCounters& counters, int64_t utime);
+
+liloc::keyframe_descriptors_t to_msg(const KeyframeIndexPart& part, int64_t utime);
+// Throws std::invalid_argument for a non-finite pose or offsets that do not fit the bytes.
+KeyframeIndexPart from_msg(const liloc::keyframe_descriptors_t& msg);
 
 }  // namespace liloc::bridge

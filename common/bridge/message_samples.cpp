@@ -141,6 +141,33 @@ liloc::submap_request_t make_sample<liloc::submap_request_t>(const std::string& 
 }
 
 template <>
+liloc::descriptor_request_t make_sample<liloc::descriptor_request_t>(const std::string& robot_id) {
+  liloc::descriptor_request_t m;
+  m.header = make_header(kUtime, robot_id, "map");
+  m.request_id = 9;
+  return m;
+}
+
+template <>
+liloc::keyframe_descriptors_t make_sample<liloc::keyframe_descriptors_t>(
+    const std::string& robot_id) {
+  liloc::keyframe_descriptors_t m;
+  m.header = make_header(kUtime, robot_id, "map");
+  m.request_id = 9;
+  m.map_version = 3;
+  m.chunk_index = 1;
+  m.num_chunks = 2;
+  m.num_keyframes = 2;
+  m.keyframe_ids = {40, 41};
+  m.submap_ids = {2, 2};
+  m.keyframe_poses = {sample_pose(7.0), sample_pose(8.0)};
+  m.descriptor_offsets = {0, 3};
+  m.descriptors = {'L', 'P', 'D', '1', 2, 0};
+  m.num_bytes = 6;
+  return m;
+}
+
+template <>
 liloc::submap_t make_sample<liloc::submap_t>(const std::string& robot_id) {
   liloc::submap_t m;
   m.header = make_header(kUtime, robot_id, "map");

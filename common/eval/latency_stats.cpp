@@ -35,4 +35,12 @@ LatencyStats compute_latency_stats(std::vector<double> cycle_ms) {
   return stats;
 }
 
+double quantile(std::vector<double> values, double p) {
+  if (values.empty()) {
+    return 0.0;
+  }
+  std::sort(values.begin(), values.end());
+  return quantile_of_sorted(values, p);
+}
+
 }  // namespace liloc::eval

@@ -20,4 +20,7 @@ struct LatencyStats {
 // Throws std::invalid_argument if cycle_ms is empty or holds a non-finite value.
 LatencyStats compute_latency_stats(std::vector<double> cycle_ms);
 
+// The p-quantile of values (as above); 0 for an empty list.
+double quantile(std::vector<double> values, double p);
+
 }  // namespace liloc::eval

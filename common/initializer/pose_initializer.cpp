@@ -1,8 +1,10 @@
 #include "initializer/pose_initializer.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numeric>
 #include <sstream>
 #include <stdexcept>
 
@@ -14,6 +16,9 @@ namespace {
 
 constexpr double kPi = 3.141592653589793;
 constexpr double kDistinctYawRad = kPi / 6;  // candidates 30 degrees apart are distinct poses
+// Two registrations of the same query on the same target ended at the same pose.
+constexpr double kSameConvergedM = 0.1;
+constexpr double kSameConvergedRad = 0.01;
 
 double yaw_of(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
 double wrap(double a) { return std::remainder(a, 2.0 * kPi); }
@@ -36,7 +41,7 @@ std::string describe(const InitCandidate& c) {
       << c.descriptor_distance << ")";
   if (c.verified) {
     out << " at (" << c.T_map_body.translation().x() << ", " << c.T_map_body.translation().y()
-        << "): fitness " << c.fitness_m << " m, overlap " << c.overlap;
+        << "): inliers " << c.inlier_ratio << ", fitness " << c.fitness_m << " m";
   }
   return out.str();
 }
@@ -52,26 +57,17 @@ void InitializerConfig::validate() const {
         "at least 1, max_query_points at least 100");
   }
   if (!(max_descriptor_distance > 0 && max_descriptor_distance <= 1) || !(max_fitness_m > 0) ||
-      !(min_overlap > 0 && min_overlap <= 1) ||
+      !(min_inlier_ratio > 0 && min_inlier_ratio <= 1) ||
+      !(min_inlier_ratio_coarse > 0 && min_inlier_ratio_coarse <= 1) || !(inlier_m > 0) ||
+      !(coarse_start_spacing_m > 0) || !(coarse_distinct_m > 0) ||
       !(max_alternative_ratio > 0 && max_alternative_ratio <= 1) ||
       independent_correspondences < 1) {
     throw std::invalid_argument(
-        "max_descriptor_distance, min_overlap and max_alternative_ratio must be in (0, 1], "
-        "max_fitness_m positive, independent_correspondences at least 1");
+        "max_descriptor_distance, the inlier ratios and max_alternative_ratio must be in (0, 1], "
+        "max_fitness_m, inlier_m, coarse_start_spacing_m and coarse_distinct_m positive, "
+        "independent_correspondences at least 1");
   }
-  const size_t stages = stage_voxel_m.size();
-  if (stages == 0 || stage_correspondence_m.size() != stages ||
-      stage_plane_thickness_m.size() != stages) {
-    throw std::invalid_argument(
-        "stage_voxel_m, stage_correspondence_m and stage_plane_thickness_m need one value per "
-        "registration stage, at least one");
-  }
-  for (size_t s = 0; s < stages; ++s) {
-    if (!(stage_voxel_m[s] > 0) || !(stage_correspondence_m[s] > 0) ||
-        !(stage_plane_thickness_m[s] > 0)) {
-      throw std::invalid_argument("registration stages must be positive");
-    }
-  }
+  stages.validate();
   registration.validate();
 }
 
@@ -144,11 +140,9 @@ PoseInitializer::Query PoseInitializer::prepare(const InitQuery& query) const {
   const Eigen::Matrix3d R_odom_body = query.T_odom_body.linear();
   q.descriptor = make_level_polar_descriptor(query.cloud_body, R_odom_body, descriptor_);
   q.R_level_body = rz(-yaw_of(R_odom_body)) * R_odom_body;
-  const std::vector<Eigen::Vector3f> sparse =
-      voxel_downsample(query.cloud_body, static_cast<float>(config_.stage_voxel_m.back())).points;
-  const size_t stride = std::max<size_t>(1, sparse.size() / config_.max_query_points);
-  for (size_t i = 0; i < sparse.size(); i += stride) {
-    q.points.push_back(sparse[i]);
+  for (const double voxel_m : config_.stages.voxel_m) {
+    q.stage_points.push_back(sparse_points(query.cloud_body, static_cast<float>(voxel_m),
+                                           static_cast<size_t>(config_.max_query_points)));
   }
   return q;
 }
@@ -162,7 +156,7 @@ std::vector<InitCandidate> PoseInitializer::rank(
     // Eq. 4: the descriptor distance, minimized over column shifts; the shift is the yaw
     // of R_candidate_query about gravity.
     const DescriptorMatch match = compare(query.descriptor, kf->descriptor);
-    if (match.distance > config_.max_descriptor_distance) {
+    if (!coarse && match.distance > config_.max_descriptor_distance) {
       continue;
     }
     InitCandidate c;
@@ -186,8 +180,9 @@ std::vector<InitCandidate> PoseInitializer::rank(
     if (static_cast<int>(kept.size()) >= config_.verify_candidates) {
       break;
     }
+    const double spacing_m = coarse ? config_.coarse_start_spacing_m : config_.distinct_m;
     const bool seen = std::any_of(kept.begin(), kept.end(), [&](const InitCandidate& k) {
-      return same_place(k.T_map_body_guess, c.T_map_body_guess, config_.distinct_m);
+      return same_place(k.T_map_body_guess, c.T_map_body_guess, spacing_m);
     });
     if (!seen) {
       kept.push_back(c);
@@ -196,25 +191,32 @@ std::vector<InitCandidate> PoseInitializer::rank(
   return kept;
 }
 
-void PoseInitializer::register_candidate(
-    const Query& query, InitCandidate& c,
-    const std::vector<std::shared_ptr<const VoxelHashMap>>& stages) const {
-  Eigen::Isometry3d T = c.T_map_body_guess;
-  RegistrationResult result;
-  for (size_t s = 0; s < stages.size(); ++s) {
-    RegistrationConfig stage = config_.registration;
-    stage.max_correspondence_m = config_.stage_correspondence_m[s];
-    stage.max_plane_thickness_m = config_.stage_plane_thickness_m[s];
-    result = register_point_to_plane(query.points, *stages[s], T, std::nullopt, stage);
-    T = result.T_target_source;
+void PoseInitializer::register_stages(const Query& query, Track& track, size_t first,
+                                      size_t last) const {
+  for (size_t s = first; s < last; ++s) {
+    track.result =
+        register_point_to_plane(query.stage_points[s], *track.stages[s], track.T_map_body,
+                                std::nullopt, config_.stages.stage(s, config_.registration));
+    track.T_map_body = track.result.T_target_source;
   }
+}
+
+void PoseInitializer::score(const Query& query, const Track& track, InitCandidate& c) const {
+  const std::vector<Eigen::Vector3f>& points = query.stage_points.back();
+  const RegistrationResult& result = track.result;
   c.verified = true;
-  c.T_map_body = T;
+  c.T_map_body = track.T_map_body;
   c.fitness_m = result.rms_residual_m;
-  c.overlap = query.points.empty() ? 0.0
-                                   : static_cast<double>(result.correspondences) /
-                                         static_cast<double>(query.points.size());
+  c.overlap = points.empty() ? 0.0 : static_cast<double>(result.correspondences) / points.size();
   c.degenerate = result.degenerate;
+  const VoxelHashMap& finest = *track.stages.back();
+  const float inlier_m = static_cast<float>(config_.inlier_m);
+  const Eigen::Isometry3f T = track.T_map_body.cast<float>();
+  size_t inliers = 0;
+  for (const Eigen::Vector3f& p : points) {
+    inliers += finest.nearest<1>(T * p, inlier_m).count > 0;
+  }
+  c.inlier_ratio = points.empty() ? 0.0 : static_cast<double>(inliers) / points.size();
   // The registration counts every match as independent; they are not (they share planes).
   const double inflation = std::max(
       1.0, static_cast<double>(result.correspondences) / config_.independent_correspondences);
@@ -225,16 +227,53 @@ void PoseInitializer::register_candidate(
   c.covariance = 0.5 * (covariance + covariance.transpose());
 }
 
+void PoseInitializer::polish(const Query& query, Track& track, InitCandidate& c) const {
+  // The weakest horizontal direction of the translation's information (body frame).
+  const Eigen::Matrix2d info_xy = track.result.information.topLeftCorner<2, 2>();
+  if (!info_xy.allFinite()) {
+    return;
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(info_xy);
+  const Eigen::Vector3d weak_body(eigen.eigenvectors()(0, 0), eigen.eigenvectors()(1, 0), 0.0);
+  for (const double offset_m : config_.polish_offsets_m) {
+    for (const double sign : {-1.0, 1.0}) {
+      Track shifted = track;
+      shifted.T_map_body.translate(sign * offset_m * weak_body);
+      register_stages(query, shifted, std::min<size_t>(1, shifted.stages.size() - 1),
+                      shifted.stages.size());
+      InitCandidate trial = c;
+      score(query, shifted, trial);
+      if (trial.inlier_ratio > c.inlier_ratio + config_.polish_min_gain) {
+        c = trial;
+        track = shifted;
+      }
+    }
+  }
+}
+
 InitResult PoseInitializer::verify(const MapIndex& index, const Query& query,
                                    std::vector<InitCandidate> candidates,
                                    const SubmapTargets& targets, bool global) const {
   InitResult result;
   result.method = global ? "global" : "coarse_to_fine";
+  // Global: each candidate's own place. Coarse-to-fine: one target for all, the union of
+  // theirs, so that starts converging to the same pose can be told and merged.
   std::vector<std::vector<int64_t>> target_ids;
   for (const InitCandidate& c : candidates) {
     target_ids.push_back(SubmapTargets::submaps_around(index, c.T_map_body_guess.translation(),
                                                        config_.target_radius_m));
-    for (const int64_t id : targets.missing(target_ids.back())) {
+  }
+  if (!global && !target_ids.empty()) {
+    std::vector<int64_t> all;
+    for (const std::vector<int64_t>& ids : target_ids) {
+      all.insert(all.end(), ids.begin(), ids.end());
+    }
+    std::sort(all.begin(), all.end());
+    all.erase(std::unique(all.begin(), all.end()), all.end());
+    target_ids.assign(candidates.size(), all);
+  }
+  for (const std::vector<int64_t>& ids : target_ids) {
+    for (const int64_t id : targets.missing(ids)) {
       if (std::find(result.missing_submaps.begin(), result.missing_submaps.end(), id) ==
           result.missing_submaps.end()) {
         result.missing_submaps.push_back(id);
@@ -247,47 +286,93 @@ InitResult PoseInitializer::verify(const MapIndex& index, const Query& query,
     result.candidates = std::move(candidates);
     return result;
   }
+  const auto targets_start = std::chrono::steady_clock::now();
+  std::vector<Track> tracks(candidates.size());
   for (size_t i = 0; i < candidates.size(); ++i) {
-    std::vector<std::shared_ptr<const VoxelHashMap>> stages;
-    for (const double voxel_m : config_.stage_voxel_m) {
-      stages.push_back(targets.target(target_ids[i], voxel_m));
+    for (const double voxel_m : config_.stages.voxel_m) {
+      tracks[i].stages.push_back(targets.target(target_ids[i], voxel_m));
     }
-    register_candidate(query, candidates[i], stages);
+    tracks[i].T_map_body = candidates[i].T_map_body_guess;
+  }
+  result.targets_ms = ms_since(targets_start);
+  const auto registration_start = std::chrono::steady_clock::now();
+  // Stage by stage; a start that reaches a better-ranked start's pose goes no further.
+  std::vector<size_t> active(candidates.size());
+  std::iota(active.begin(), active.end(), 0);
+  for (size_t s = 0; s < config_.stages.size(); ++s) {
+    std::vector<size_t> kept;
+    for (const size_t i : active) {
+      Track& track = tracks[i];
+      register_stages(query, track, s, s + 1);
+      const auto same = std::find_if(kept.begin(), kept.end(), [&](size_t k) {
+        return target_ids[k] == target_ids[i] &&
+               (tracks[k].T_map_body.translation() - track.T_map_body.translation()).norm() <
+                   kSameConvergedM &&
+               se3::rotation_angle(tracks[k].T_map_body.inverse() * track.T_map_body) <
+                   kSameConvergedRad;
+      });
+      if (same == kept.end()) {
+        kept.push_back(i);
+      } else {
+        candidates[i].rejected =
+            "converged with the start of keyframe " + std::to_string(candidates[*same].keyframe_id);
+      }
+    }
+    active = std::move(kept);
+  }
+  for (const size_t i : active) {
+    score(query, tracks[i], candidates[i]);
+  }
+  if (!active.empty()) {
+    const size_t best = *std::max_element(active.begin(), active.end(), [&](size_t a, size_t b) {
+      return candidates[a].inlier_ratio < candidates[b].inlier_ratio;
+    });
+    polish(query, tracks[best], candidates[best]);
+  }
+  result.registration_ms = ms_since(registration_start);
+  const double min_inlier_ratio =
+      global ? config_.min_inlier_ratio : config_.min_inlier_ratio_coarse;
+  for (const size_t i : active) {
     InitCandidate& c = candidates[i];
-    if (c.fitness_m > config_.max_fitness_m) {
+    if (c.inlier_ratio < min_inlier_ratio) {
+      c.rejected = "inlier ratio " + std::to_string(c.inlier_ratio) + " below " +
+                   std::to_string(min_inlier_ratio);
+    } else if (c.fitness_m > config_.max_fitness_m) {
       c.rejected = "fitness " + std::to_string(c.fitness_m) + " m above " +
                    std::to_string(config_.max_fitness_m);
-    } else if (c.overlap < config_.min_overlap) {
-      c.rejected =
-          "overlap " + std::to_string(c.overlap) + " below " + std::to_string(config_.min_overlap);
     }
   }
-  // The answer: the passing candidate with the most overlap.
+  // The answer: the passing candidate with the most inliers.
   std::stable_sort(candidates.begin(), candidates.end(),
                    [](const InitCandidate& a, const InitCandidate& b) {
                      if (a.rejected.empty() != b.rejected.empty()) {
                        return a.rejected.empty();
                      }
-                     return a.overlap > b.overlap;
+                     return a.inlier_ratio > b.inlier_ratio;
                    });
   if (candidates.empty() || !candidates.front().rejected.empty()) {
+    const std::string none =
+        global ? "no map keyframe's descriptor is within " +
+                     std::to_string(config_.max_descriptor_distance) + " of the query's"
+               : "no map keyframe near the coarse pose with a heading it allows";
     result.reason = candidates.empty()
-                        ? "no map keyframe's descriptor is within " +
-                              std::to_string(config_.max_descriptor_distance) + " of the query's"
+                        ? none
                         : "no candidate passed verification: best " + describe(candidates.front()) +
                               ": " + candidates.front().rejected;
     result.candidates = std::move(candidates);
     return result;
   }
   InitCandidate& best = candidates.front();
-  if (global) {
-    // The best distinct alternative, verified: it must clearly lose.
+  {
+    // The best distinct alternative, verified: it must clearly lose. (Coarse-to-fine: two
+    // starts that converged apart along a street of repeating facades.)
+    const double distinct_m = global ? config_.distinct_m : config_.coarse_distinct_m;
     for (size_t i = 1; i < candidates.size(); ++i) {
       InitCandidate& other = candidates[i];
-      if (!other.verified || same_place(other.T_map_body, best.T_map_body, config_.distinct_m)) {
+      if (!other.verified || same_place(other.T_map_body, best.T_map_body, distinct_m)) {
         continue;
       }
-      if (other.overlap > config_.max_alternative_ratio * best.overlap) {
+      if (other.inlier_ratio > config_.max_alternative_ratio * best.inlier_ratio) {
         result.reason = "ambiguous: " + describe(best) + " and " + describe(other);
         best.rejected = other.rejected = "ambiguous with another place";
         result.candidates = std::move(candidates);
@@ -298,7 +383,7 @@ InitResult PoseInitializer::verify(const MapIndex& index, const Query& query,
   }
   for (size_t i = 1; i < candidates.size(); ++i) {
     if (candidates[i].rejected.empty()) {
-      candidates[i].rejected = "less overlap than the answer";
+      candidates[i].rejected = "fewer inliers than the answer";
     }
   }
   result.status = InitResult::Status::kLocalized;
@@ -362,6 +447,39 @@ InitResult PoseInitializer::global(const MapIndex& index, const InitQuery& query
   InitResult result = verify(index, q, rank(q, keyframes, std::nullopt), targets, true);
   result.time_ms = ms_since(start);
   return result;
+}
+
+InitResult PoseInitializer::refine(const MapIndex& index, const InitQuery& query,
+                                   const Eigen::Isometry3d& T_map_body_guess,
+                                   const SubmapTargets& targets) const {
+  const auto start = std::chrono::steady_clock::now();
+  InitCandidate c;
+  c.T_map_body_guess = T_map_body_guess;
+  InitResult result = verify(index, prepare(query), {c}, targets, false);
+  result.time_ms = ms_since(start);
+  return result;
+}
+
+InitAnswer answer_of(const InitResult& result, const InitQuery& query) {
+  InitAnswer a;
+  a.localized = result.localized();
+  a.method = result.method;
+  a.message = result.reason;
+  a.keyframe_id = query.keyframe_id;
+  a.utime_us = query.utime_us;
+  a.time_ms = result.time_ms;
+  const InitCandidate* c = result.best
+                               ? &*result.best
+                               : (result.candidates.empty() ? nullptr : &result.candidates.front());
+  if (c != nullptr) {
+    a.T_map_body = c->verified ? c->T_map_body : c->T_map_body_guess;
+    a.covariance = c->covariance;
+    a.fitness_m = c->fitness_m;
+    a.descriptor_distance = c->descriptor_distance;
+    a.matched_submap_id = c->submap_id;
+    a.matched_keyframe_id = c->keyframe_id;
+  }
+  return a;
 }
 
 std::optional<Eigen::Isometry3d> HypothesisVoter::add(

@@ -67,6 +67,7 @@ struct MapDelta {
   std::vector<Submap> submaps;
   std::vector<PoseGraphEdge> edges;
   std::map<int64_t, std::shared_ptr<const PointCloud>> clouds;  // by keyframe id
+  std::map<int64_t, std::vector<uint8_t>> descriptors;          // encoded, by keyframe id
 
   // Appends this change to a map (MapData) or to an earlier change (MapDelta).
   template <class Target>
@@ -76,6 +77,7 @@ struct MapDelta {
     target.edges.insert(target.edges.end(), edges.begin(), edges.end());
     if constexpr (std::is_same_v<Target, MapDelta>) {
       target.clouds.insert(clouds.begin(), clouds.end());
+      target.descriptors.insert(descriptors.begin(), descriptors.end());
     }
   }
 };

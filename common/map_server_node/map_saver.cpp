@@ -3,17 +3,12 @@
 #include <map>
 #include <stdexcept>
 
-#include "map/keyframe_descriptors.hpp"
 #include "map/map_validation.hpp"
 
 namespace liloc {
 
-MapSaver::MapSaver(storage::MapStore& store, MapData on_disk,
-                   const PolarDescriptorConfig& descriptor, int keep_versions)
-    : store_(store),
-      on_disk_(std::move(on_disk)),
-      descriptor_(descriptor),
-      keep_versions_(keep_versions) {}
+MapSaver::MapSaver(storage::MapStore& store, MapData on_disk, int keep_versions)
+    : store_(store), on_disk_(std::move(on_disk)), keep_versions_(keep_versions) {}
 
 void MapSaver::submit(MapDelta delta) {
   {
@@ -67,15 +62,16 @@ void MapSaver::save_pending(Result& result) {
   for (int attempt = 0; attempt < 2 && !pending_.empty(); ++attempt) {
     MapData next = on_disk_;
     std::map<int64_t, PointCloud> clouds;
+    std::map<int64_t, std::vector<uint8_t>> descriptors;
     for (const MapDelta& delta : pending_) {
       delta.append_to(next);
       for (const auto& [id, cloud] : delta.clouds) {
         clouds.emplace(id, *cloud);
       }
+      descriptors.insert(delta.descriptors.begin(), delta.descriptors.end());
     }
     try {
-      result.report = store_.save(next, clouds,
-                                  encode_keyframe_descriptors(next.keyframes, clouds, descriptor_));
+      result.report = store_.save(next, clouds, descriptors);
     } catch (const std::invalid_argument& e) {
       // Refused data: drop what the map's rules refuse and save the rest; anything else
       // the store refuses (a keyframe id it already holds) would be refused forever.

@@ -15,7 +15,6 @@
 #include <vector>
 
 #include "app/worker_pool.hpp"
-#include "descriptor/polar_descriptor.hpp"
 #include "map/map_types.hpp"
 #include "storage/map_store.hpp"
 
@@ -32,8 +31,7 @@ class MapSaver {
   };
 
   // `on_disk`: the map as the store holds it now (its version is the store's current one).
-  MapSaver(storage::MapStore& store, MapData on_disk, const PolarDescriptorConfig& descriptor,
-           int keep_versions);
+  MapSaver(storage::MapStore& store, MapData on_disk, int keep_versions);
   MapSaver(const MapSaver&) = delete;
   MapSaver& operator=(const MapSaver&) = delete;
 
@@ -62,7 +60,6 @@ class MapSaver {
   storage::MapStore& store_;
   MapData on_disk_;                // the worker's alone
   std::vector<MapDelta> pending_;  // the worker's alone: merged, not yet on disk
-  PolarDescriptorConfig descriptor_;
   int keep_versions_;
   mutable std::mutex mutex_;  // guards results_ and unsaved_keyframes_
   std::vector<Result> results_;

@@ -45,9 +45,10 @@ MapServerNode::MapServerNode(transport::Transport& bus, const MapServerNodeConfi
       cache_(store, static_cast<size_t>(config.map_server.cache_mb * 1024 * 1024)),
       submap_files_(store.directory(), config.map_server.service.reply_voxel_m),
       service_(
-          map, [this](int64_t id) { return cache_.get(id); }, config.map_server.service,
-          config.submaps, deduplicating() ? &submap_files_ : nullptr),
-      saver_(store, map, config.descriptor, config.map_server.keep_versions),
+          map, [this](int64_t id) { return cache_.get(id); }, load_descriptors(store, map),
+          config.map_server.service, config.submaps, config.descriptor,
+          deduplicating() ? &submap_files_ : nullptr),
+      saver_(store, map, config.map_server.keep_versions),
       disk_version_(map.version),
       replies_(
           [this](CloudRequest& r) {
@@ -79,6 +80,11 @@ MapServerNode::MapServerNode(transport::Transport& bus, const MapServerNodeConfi
           reply(query, msg.header.utime, info.recv_utime);
         }
       });
+  bus_.subscribe<liloc::descriptor_request_t>(
+      config.channels.descriptor_request,
+      [this](const liloc::descriptor_request_t& msg, const transport::ReceiveInfo&) {
+        on_descriptor_request(msg);
+      });
   bus_.subscribe<liloc::map_update_t>(
       config.channels.map_update,
       [this](const liloc::map_update_t& msg, const transport::ReceiveInfo&) { on_update(msg); });
@@ -101,6 +107,52 @@ MapServerNode::~MapServerNode() {
 MapData MapServerNode::map() const {
   std::lock_guard<std::mutex> lock(service_mutex_);
   return service_.map();
+}
+
+KeyframeDescriptors MapServerNode::load_descriptors(const storage::MapStore& store,
+                                                    const MapData& map) {
+  // Computed when the map was built and kept beside its clouds: no request recomputes them.
+  KeyframeDescriptors out;
+  int64_t unreadable = 0;
+  std::string first_error;
+  for (const MapKeyframe& kf : map.keyframes) {
+    try {
+      out[kf.id] = store.load_descriptor(kf.id);
+    } catch (const std::exception& e) {
+      first_error = first_error.empty() ? e.what() : first_error;
+      ++unreadable;
+    }
+  }
+  if (unreadable > 0) {
+    spdlog::error(
+        "{} keyframe descriptor(s) unreadable, those keyframes are not searched by "
+        "initialization; the first: {}",
+        unreadable, first_error);
+  }
+  return out;
+}
+
+void MapServerNode::on_descriptor_request(const liloc::descriptor_request_t& msg) {
+  if (!is_valid_name(msg.header.robot_id)) {
+    if (should_log(++requests_refused_)) {
+      spdlog::warn("descriptor request from robot '{}' refused: not a valid robot id",
+                   printable_excerpt(msg.header.robot_id));
+    }
+    return;
+  }
+  std::vector<KeyframeIndexPart> parts;
+  {
+    std::lock_guard<std::mutex> lock(service_mutex_);
+    parts = service_.keyframe_index(msg.header.robot_id, msg.request_id);
+  }
+  transport::Transport& bus = reply_bus(msg.header.robot_id);
+  const std::string channel =
+      transport::robot_channel(msg.header.robot_id, config_.channels.descriptors);
+  for (const KeyframeIndexPart& part : parts) {
+    liloc::keyframe_descriptors_t reply = bridge::to_msg(part, msg.header.utime);
+    bus.publish(channel, reply);
+  }
+  ++descriptor_requests_;
 }
 
 void MapServerNode::on_update(const liloc::map_update_t& msg) {
@@ -294,6 +346,7 @@ void MapServerNode::publish_info(int64_t now_us) {
       {"save_total", static_cast<float>(last_save_.total_ms)}};
   const std::vector<std::pair<std::string, int64_t>> more = {
       {"requests_refused", requests_refused_},
+      {"descriptor_requests", descriptor_requests_},
       {"map_version", disk_version_},
       {"unsaved_keyframes", saver_.unsaved_keyframes()},
       {"saves_failed", saves_failed_},

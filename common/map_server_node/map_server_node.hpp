@@ -1,9 +1,12 @@
 #pragma once
 // The map server's logic (docs/map_server.md): serves the central session to every robot
 // and grows it.
-//   in:  MAP.REQUEST (submap_request_t), MAP.UPDATE (map_update_t)
-//   out: <robot>.SUBMAP (submap_t, addressed), MAP.INFO (map_info_t), MAP.STATUS
-// Position queries and updates are handled on the message thread; replies with clouds on
+//   in:  MAP.REQUEST (submap_request_t), MAP.DESCRIPTOR_REQUEST (descriptor_request_t),
+//        MAP.UPDATE (map_update_t)
+//   out: <robot>.SUBMAP (submap_t), <robot>.DESCRIPTORS (keyframe_descriptors_t), MAP.INFO
+//        (map_info_t), MAP.STATUS
+// Position queries, keyframe index requests (the map's descriptors, for initialization)
+// and updates are handled on the message thread; replies with clouds on
 // worker threads (so that a burst of them never holds up the small ones); merged updates
 // are saved as new map versions by a MapSaver on a thread of its own.
 
@@ -18,6 +21,7 @@
 
 #include "app/worker_pool.hpp"
 #include "descriptor/polar_descriptor.hpp"
+#include "liloc/descriptor_request_t.hpp"
 #include "liloc/map_update_t.hpp"
 #include "map/submap_database.hpp"
 #include "map_server_node/map_saver.hpp"
@@ -95,6 +99,8 @@ class MapServerNode final : public node::Node {
     int64_t received_us = 0;
   };
 
+  static KeyframeDescriptors load_descriptors(const storage::MapStore& store, const MapData& map);
+  void on_descriptor_request(const liloc::descriptor_request_t& msg);
   void on_update(const liloc::map_update_t& msg);
   void take_save_results();
   // Answers one request: planned under the service lock; clouds gathered, encoded and
@@ -119,7 +125,8 @@ class MapServerNode final : public node::Node {
   std::mutex reply_buses_mutex_;  // guards reply_buses_
   // By URL: at most transport.reply_ports of them, whatever robots ask.
   std::map<std::string, std::unique_ptr<transport::Transport>> reply_buses_;
-  int64_t requests_refused_ = 0;  // malformed robot ids (message thread only)
+  int64_t requests_refused_ = 0;     // malformed robot ids (message thread only)
+  int64_t descriptor_requests_ = 0;  // answered (message thread only)
   int64_t disk_version_ = 0;
   int64_t saves_failed_ = 0;
   int64_t keyframes_dropped_ = 0;  // refused by a save: never on disk

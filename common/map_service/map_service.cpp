@@ -9,9 +9,10 @@
 namespace liloc {
 
 void MapServiceConfig::validate() const {
-  if (max_submaps_per_reply < 1 || max_chunk_points < 1 || max_update_keyframes < 1 ||
-      max_update_points < 1 || !(update_timeout_s > 0) || reply_cache_submaps < 1 ||
-      max_finished_updates < 1 || max_pending_updates < 1 || max_pending_points < 1) {
+  if (max_submaps_per_reply < 1 || max_chunk_points < 1 || max_descriptor_chunk_bytes < 1024 ||
+      max_update_keyframes < 1 || max_update_points < 1 || !(update_timeout_s > 0) ||
+      reply_cache_submaps < 1 || max_finished_updates < 1 || max_pending_updates < 1 ||
+      max_pending_points < 1) {
     throw std::invalid_argument("limits and timeout must be positive");
   }
   for (const std::string& robot : allowed_robots) {
@@ -24,16 +25,23 @@ void MapServiceConfig::validate() const {
   }
 }
 
-MapService::MapService(MapData map, KeyframeCloudSource clouds, const MapServiceConfig& config,
-                       const SubmapConfig& submaps, const SubmapCloudStore* store)
+MapService::MapService(MapData map, KeyframeCloudSource clouds,
+                       const KeyframeDescriptors& descriptors, const MapServiceConfig& config,
+                       const SubmapConfig& submaps, const PolarDescriptorConfig& descriptor,
+                       const SubmapCloudStore* store)
     : map_(std::move(map)),
       cloud_source_(std::move(clouds)),
       config_(config),
       submaps_(submaps),
+      descriptor_(descriptor),
       store_(store),
       database_(map_) {
   config_.validate();
   submaps_.validate();
+  descriptor_.validate();
+  for (const auto& [id, bytes] : descriptors) {
+    descriptors_[id] = std::make_shared<const std::vector<uint8_t>>(bytes);
+  }
   if (store_ != nullptr && store_->voxel_m() != config_.reply_voxel_m) {
     throw std::invalid_argument("the submap cloud store's voxel size (" +
                                 std::to_string(store_->voxel_m()) + " m) is not reply_voxel_m (" +
@@ -101,6 +109,40 @@ MapService::ReplyPlan MapService::plan(const SubmapQuery& query) {
     reply.items.push_back(std::move(item));
   }
   return reply;
+}
+
+std::vector<KeyframeIndexPart> MapService::keyframe_index(const std::string& robot_id,
+                                                          int64_t request_id) const {
+  std::vector<KeyframeIndexPart> parts;
+  size_t bytes = 0;
+  for (const MapKeyframe& kf : map_.keyframes) {
+    const auto descriptor = descriptors_.find(kf.id);
+    if (descriptor == descriptors_.end()) {
+      continue;  // a keyframe without one is not searched
+    }
+    if (parts.empty() || (bytes + descriptor->second->size() >
+                              static_cast<size_t>(config_.max_descriptor_chunk_bytes) &&
+                          !parts.back().keyframes.empty())) {
+      KeyframeIndexPart& part = parts.emplace_back();
+      part.robot_id = robot_id;
+      part.request_id = request_id;
+      part.map_version = map_.version;
+      bytes = 0;
+    }
+    parts.back().keyframes.push_back({kf.id, kf.submap_id, kf.T_map_body, descriptor->second});
+    bytes += descriptor->second->size();
+  }
+  if (parts.empty()) {  // a map without descriptors: one empty part says so
+    KeyframeIndexPart& part = parts.emplace_back();
+    part.robot_id = robot_id;
+    part.request_id = request_id;
+    part.map_version = map_.version;
+  }
+  for (size_t i = 0; i < parts.size(); ++i) {
+    parts[i].chunk_index = static_cast<int>(i);
+    parts[i].num_chunks = static_cast<int>(parts.size());
+  }
+  return parts;
 }
 
 std::vector<SubmapReplyPart> MapService::complete(ReplyPlan& reply) const {
@@ -332,8 +374,11 @@ UpdateOutcome MapService::merge(const std::string& robot_id, const std::string& 
       m.session = session_id.empty() ? robot_id : session_id;
       m.T_map_body = kf.T_map_body;
       m.fitness_m = kf.fitness_m;
+      auto cloud = std::make_shared<const PointCloud>(std::move(kf.cloud_body));
+      delta.descriptors[m.id] =
+          encode(make_level_polar_descriptor(*cloud, m.T_map_body.linear(), descriptor_));
       delta.keyframes.push_back(m);
-      delta.clouds[m.id] = std::make_shared<const PointCloud>(std::move(kf.cloud_body));
+      delta.clouds[m.id] = std::move(cloud);
     }
   }
   if (delta.keyframes.empty()) {
@@ -359,6 +404,9 @@ UpdateOutcome MapService::merge(const std::string& robot_id, const std::string& 
   map_ = std::move(merged);
   database_ = SubmapDatabase(map_);
   merged_clouds_.insert(delta.clouds.begin(), delta.clouds.end());
+  for (const auto& [id, bytes] : delta.descriptors) {
+    descriptors_[id] = std::make_shared<const std::vector<uint8_t>>(bytes);
+  }
   ++counters_.updates_merged;
   reply_clouds_.clear();  // a merge may re-cut submaps: recompute what replies send
   reply_clouds_order_.clear();

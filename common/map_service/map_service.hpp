@@ -17,6 +17,7 @@
 #include <tuple>
 #include <vector>
 
+#include "descriptor/polar_descriptor.hpp"
 #include "map/map_types.hpp"
 #include "map/submap_clouds.hpp"
 #include "map/submap_database.hpp"
@@ -29,6 +30,8 @@ struct MapServiceConfig {
   // Keyframe clouds per reply message, in points (7 bytes each on the wire): a submap
   // beyond this is sent in several chunks of whole keyframes.
   int max_chunk_points = 150000;
+  // Keyframe index replies (descriptors) per message, in bytes of descriptors.
+  int max_descriptor_chunk_bytes = 400000;
   // Replies send each map voxel of this size once (map/submap_clouds.hpp; 0: the full
   // keyframe clouds, which overlap ~3x). The deduplicated clouds of a submap are computed
   // once and kept in the SubmapCloudStore given to the service, if any.
@@ -52,6 +55,7 @@ struct MapServiceConfig {
   void visit_fields(V& v) {
     v("max_submaps_per_reply", max_submaps_per_reply);
     v("max_chunk_points", max_chunk_points);
+    v("max_descriptor_chunk_bytes", max_descriptor_chunk_bytes);
     v("reply_voxel_m", reply_voxel_m);
     v("reply_cache_submaps", reply_cache_submaps);
     v("allowed_robots", allowed_robots);
@@ -110,6 +114,28 @@ struct MapUpdatePart {
   std::vector<UpdateKeyframe> keyframes;
 };
 
+// One keyframe of the map's index: what pose initialization searches before it asks for
+// any cloud.
+struct IndexedKeyframe {
+  int64_t id = 0;
+  int64_t submap_id = -1;
+  Eigen::Isometry3d T_map_body = Eigen::Isometry3d::Identity();
+  std::shared_ptr<const std::vector<uint8_t>> descriptor;  // encoded (Eq. 3)
+};
+
+// One message of a reply to a keyframe index request.
+struct KeyframeIndexPart {
+  std::string robot_id;
+  int64_t request_id = 0;
+  int64_t map_version = 0;
+  int chunk_index = 0;
+  int num_chunks = 0;
+  std::vector<IndexedKeyframe> keyframes;
+};
+
+// The encoded descriptor of each keyframe of a map, by id (storage's .desc files).
+using KeyframeDescriptors = std::map<int64_t, std::vector<uint8_t>>;
+
 struct UpdateOutcome {
   enum class Status { kPending, kMerged, kRejected };
   Status status = Status::kPending;
@@ -132,15 +158,23 @@ struct MapServiceCounters {
 
 class MapService {
  public:
-  // `submaps`: the rule (Eq. 2) that cut the map, which cuts merged updates too.
-  // `store` (may be null; must outlive the service) keeps the deduplicated reply clouds of
-  // submaps between requests and runs; its voxel size must be config.reply_voxel_m.
-  MapService(MapData map, KeyframeCloudSource clouds, const MapServiceConfig& config,
-             const SubmapConfig& submaps, const SubmapCloudStore* store = nullptr);
+  // `descriptors`: those of the map's keyframes; merged keyframes get theirs computed with
+  // `descriptor` (the map's). `submaps`: the rule (Eq. 2) that cut the map, which cuts
+  // merged updates too. `store` (may be null; must outlive the service) keeps the
+  // deduplicated reply clouds of submaps between requests and runs; its voxel size must be
+  // config.reply_voxel_m.
+  MapService(MapData map, KeyframeCloudSource clouds, const KeyframeDescriptors& descriptors,
+             const MapServiceConfig& config, const SubmapConfig& submaps,
+             const PolarDescriptorConfig& descriptor, const SubmapCloudStore* store = nullptr);
   MapService(const MapService&) = delete;
   MapService& operator=(const MapService&) = delete;
 
   std::vector<SubmapReplyPart> answer(const SubmapQuery& query);
+
+  // The map's keyframe index (poses, submaps, descriptors) for `robot_id`, in chunks of at
+  // most max_descriptor_chunk_bytes of descriptors.
+  std::vector<KeyframeIndexPart> keyframe_index(const std::string& robot_id,
+                                                int64_t request_id) const;
 
   // answer() in three steps, for a server that answers from several threads under one
   // lock: plan() with the lock held (cheap: ids, keyframes, cached clouds), complete()
@@ -214,6 +248,8 @@ class MapService {
   KeyframeCloudSource cloud_source_;
   MapServiceConfig config_;
   SubmapConfig submaps_;
+  PolarDescriptorConfig descriptor_;
+  std::map<int64_t, std::shared_ptr<const std::vector<uint8_t>>> descriptors_;  // by keyframe
   const SubmapCloudStore* store_;
   mutable std::atomic<int64_t> store_errors_{0};
   SubmapDatabase database_;

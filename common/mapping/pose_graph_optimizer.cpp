@@ -8,7 +8,8 @@
 #include <map>
 #include <stdexcept>
 
-#include "mapping/relative_pose_cost.hpp"
+#include "factors/relative_pose_factor.hpp"
+#include "factors/se3_manifold.hpp"
 
 namespace liloc {
 
@@ -27,20 +28,15 @@ PoseGraphResult optimize_pose_graph(std::vector<MapKeyframe>& keyframes,
     result.converged = true;
     return result;
   }
-  // Parameter blocks: position and quaternion (x, y, z, w) per keyframe.
-  struct Node {
-    Eigen::Vector3d p;
-    Eigen::Quaterniond q;
-  };
-  std::vector<Node> nodes(keyframes.size());
+  // Parameter blocks: one pose per keyframe (Se3Manifold).
+  std::vector<PoseBlock> nodes(keyframes.size());
   std::map<int64_t, size_t> index;
   for (size_t i = 0; i < keyframes.size(); ++i) {
-    nodes[i] = {keyframes[i].T_map_body.translation(),
-                Eigen::Quaterniond(keyframes[i].T_map_body.linear()).normalized()};
+    nodes[i] = pose_block(keyframes[i].T_map_body);
     index[keyframes[i].id] = i;
   }
   ceres::Problem problem;  // owns the manifold, costs and losses
-  ceres::Manifold* quaternion_manifold = new ceres::EigenQuaternionManifold;
+  ceres::Manifold* manifold = new Se3Manifold;
   for (const PoseGraphEdge& e : edges) {
     const auto a = index.find(e.from);
     const auto b = index.find(e.to);
@@ -52,20 +48,17 @@ PoseGraphResult optimize_pose_graph(std::vector<MapKeyframe>& keyframes,
     ceres::LossFunction* loss = e.kind == PoseGraphEdge::Kind::kLoop
                                     ? new ceres::CauchyLoss(config.loop_loss_scale)
                                     : nullptr;
-    Node& na = nodes[a->second];
-    Node& nb = nodes[b->second];
-    problem.AddResidualBlock(RelativePoseCost::create(e.T_from_to, sqrt_information), loss,
-                             na.p.data(), na.q.coeffs().data(), nb.p.data(), nb.q.coeffs().data());
+    problem.AddResidualBlock(RelativePoseFactor::create(e.T_from_to, sqrt_information), loss,
+                             nodes[a->second].data(), nodes[b->second].data());
   }
-  for (Node& n : nodes) {
-    if (problem.HasParameterBlock(n.q.coeffs().data())) {
-      problem.SetManifold(n.q.coeffs().data(), quaternion_manifold);
+  for (PoseBlock& n : nodes) {
+    if (problem.HasParameterBlock(n.data())) {
+      problem.SetManifold(n.data(), manifold);
     }
   }
   // The first keyframe anchors the map frame.
-  if (problem.HasParameterBlock(nodes[0].p.data())) {
-    problem.SetParameterBlockConstant(nodes[0].p.data());
-    problem.SetParameterBlockConstant(nodes[0].q.coeffs().data());
+  if (problem.HasParameterBlock(nodes[0].data())) {
+    problem.SetParameterBlockConstant(nodes[0].data());
   }
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
@@ -74,7 +67,7 @@ PoseGraphResult optimize_pose_graph(std::vector<MapKeyframe>& keyframes,
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
   for (size_t i = 0; i < keyframes.size(); ++i) {
-    keyframes[i].T_map_body = se3::make(nodes[i].q.normalized(), nodes[i].p);
+    keyframes[i].T_map_body = pose_of(nodes[i].data());
   }
   result.iterations = static_cast<int>(summary.iterations.size());
   result.initial_cost = summary.initial_cost;

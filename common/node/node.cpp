@@ -25,6 +25,11 @@ bool run_nodes(transport::Transport& transport, const std::vector<Node*>& nodes,
       end_of_input = true;
       break;
     }
+    for (Node* n : nodes) {
+      for (transport::Transport* own : n->own_transports()) {
+        own->drain();
+      }
+    }
     const int64_t now = wall_clock_us();
     if (now >= next_tick_us) {
       for (Node* n : nodes) {

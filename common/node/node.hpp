@@ -25,6 +25,9 @@ class Node {
   // No more input will come (end of a log, shutdown): finish what is buffered. False if
   // something was lost (the node logged what), so that the process exits non-zero.
   virtual bool finish() { return true; }
+  // Transports the node listens on besides the one it was given (its reply route:
+  // node/reply_route.hpp); run_nodes() dispatches them too.
+  virtual std::vector<transport::Transport*> own_transports() { return {}; }
 };
 
 struct RunConfig {

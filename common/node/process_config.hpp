@@ -13,8 +13,8 @@ namespace liloc::node {
 
 // Every section of the system config, whichever process reads it.
 inline constexpr std::initializer_list<const char*> kSystemSections = {
-    "transport",  "channels", "sensors",    "odometry",
-    "descriptor", "submaps",  "map_server", "map_builder"};
+    "transport", "channels",   "sensors",     "odometry",    "descriptor",
+    "submaps",   "map_server", "map_builder", "initializer", "optimizer"};
 
 // Marks every system section as known to a config visitor (config/yaml_config.hpp).
 template <class Visitor>

@@ -8,12 +8,12 @@
 namespace liloc {
 
 void ImuNoiseConfig::validate() const {
-  if (!(accel_noise_density > 0) || !(gyro_noise_density > 0) || !(accel_bias_random_walk >= 0) ||
-      !(gyro_bias_random_walk >= 0) || !(gravity_mps2 > 0) || !(max_sample_gap_s > 0) ||
-      !(gap_accel_density >= 0) || !(gap_gyro_density >= 0) ||
+  ImuNoiseDensities::validate();
+  if (!(max_sample_gap_s > 0) || !(gap_accel_density >= 0) || !(gap_gyro_density >= 0) ||
       !(gravity_direction_random_walk >= 0)) {
     throw std::invalid_argument(
-        "IMU noise densities, gravity and max_sample_gap_s must be positive");
+        "max_sample_gap_s must be positive, the gap densities and the gravity direction's "
+        "random walk non-negative");
   }
 }
 

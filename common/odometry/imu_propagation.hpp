@@ -6,19 +6,14 @@
 #include <cstdint>
 #include <vector>
 
+#include "imu/imu_noise.hpp"
 #include "imu/imu_sample.hpp"
 #include "odometry/motion_profile.hpp"
 #include "odometry/navigation_state.hpp"
 
 namespace liloc {
 
-struct ImuNoiseConfig {
-  // Continuous-time densities; defaults are those used for NCLT's MS25 IMU.
-  double accel_noise_density = 3.99e-3;     // m/s^2/sqrt(Hz)
-  double gyro_noise_density = 1.56e-3;      // rad/s/sqrt(Hz)
-  double accel_bias_random_walk = 6.44e-5;  // m/s^3/sqrt(Hz)
-  double gyro_bias_random_walk = 3.56e-5;   // rad/s^2/sqrt(Hz)
-  double gravity_mps2 = 9.81;
+struct ImuNoiseConfig : ImuNoiseDensities {
   // The local map's "up" can drift slowly from gravity's (tilt errors baked into the
   // map); a small random walk of the gravity direction lets the filter follow it instead
   // of blaming the accelerometer bias.
@@ -32,11 +27,7 @@ struct ImuNoiseConfig {
 
   template <class V>
   void visit_fields(V& v) {
-    v("accel_noise_density", accel_noise_density);
-    v("gyro_noise_density", gyro_noise_density);
-    v("accel_bias_random_walk", accel_bias_random_walk);
-    v("gyro_bias_random_walk", gyro_bias_random_walk);
-    v("gravity_mps2", gravity_mps2);
+    ImuNoiseDensities::visit_fields(v);
     v("gravity_direction_random_walk", gravity_direction_random_walk);
     v("max_sample_gap_s", max_sample_gap_s);
     v("gap_accel_density", gap_accel_density);

@@ -1,5 +1,6 @@
 #include "pointcloud/voxel_grid.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "pointcloud/voxel_index_table.hpp"
@@ -48,6 +49,18 @@ PointCloud voxel_downsample(const PointCloud& cloud, float voxel_m) {
   for (const Accumulator& acc : slots) {
     const float inv = 1.0f / static_cast<float>(acc.count);
     out.push_back(acc.sum * inv, acc.intensity_sum * inv);
+  }
+  return out;
+}
+
+std::vector<Eigen::Vector3f> sparse_points(const PointCloud& cloud, float voxel_m,
+                                           size_t max_points) {
+  const std::vector<Eigen::Vector3f> dense = voxel_downsample(cloud, voxel_m).points;
+  const size_t stride = std::max<size_t>(1, dense.size() / std::max<size_t>(max_points, 1));
+  std::vector<Eigen::Vector3f> out;
+  out.reserve(dense.size() / stride + 1);
+  for (size_t i = 0; i < dense.size(); i += stride) {
+    out.push_back(dense[i]);
   }
   return out;
 }

@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <vector>
 
 #include "pointcloud/point_cloud.hpp"
 
@@ -18,5 +19,10 @@ uint64_t voxel_key(const Eigen::Vector3i& index);
 // keeps the order in which voxels were first hit, so it is deterministic.
 // voxel_m <= 0 returns the input unchanged.
 PointCloud voxel_downsample(const PointCloud& cloud, float voxel_m);
+
+// The points of voxel_downsample, then every k-th of them so that at most max_points remain
+// (spread over the whole cloud): a registration source of bounded cost.
+std::vector<Eigen::Vector3f> sparse_points(const PointCloud& cloud, float voxel_m,
+                                           size_t max_points);
 
 }  // namespace liloc

@@ -138,6 +138,20 @@ void RegistrationConfig::validate() const {
   }
 }
 
+void RegistrationStages::validate() const {
+  if (voxel_m.empty() || correspondence_m.size() != voxel_m.size() ||
+      plane_thickness_m.size() != voxel_m.size()) {
+    throw std::invalid_argument(
+        "registration stages: voxel_m, correspondence_m and plane_thickness_m need one value "
+        "per stage, at least one");
+  }
+  for (size_t s = 0; s < voxel_m.size(); ++s) {
+    if (!(voxel_m[s] > 0) || !(correspondence_m[s] > 0) || !(plane_thickness_m[s] > 0)) {
+      throw std::invalid_argument("registration stages must be positive");
+    }
+  }
+}
+
 std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double max_thickness_m,
                                double min_planarity) {
   if (count < 3) {

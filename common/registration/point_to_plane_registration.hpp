@@ -59,6 +59,31 @@ struct RegistrationConfig {
   void validate() const;
 };
 
+// Registration coarse to fine, one entry per stage: the voxel of the target (and of the
+// source's downsampling), the association radius and the plane thickness; the first stages
+// pull a start metres off into the basin of the last.
+struct RegistrationStages {
+  std::vector<double> voxel_m;
+  std::vector<double> correspondence_m;
+  std::vector<double> plane_thickness_m;
+
+  size_t size() const { return voxel_m.size(); }
+  // `base` with stage s's association radius and plane thickness.
+  RegistrationConfig stage(size_t s, const RegistrationConfig& base) const {
+    RegistrationConfig c = base;
+    c.max_correspondence_m = correspondence_m[s];
+    c.max_plane_thickness_m = plane_thickness_m[s];
+    return c;
+  }
+  template <class V>
+  void visit_fields(V& v) {
+    v("voxel_m", voxel_m);
+    v("correspondence_m", correspondence_m);
+    v("plane_thickness_m", plane_thickness_m);
+  }
+  void validate() const;
+};
+
 // A Gaussian prior on the pose: mean and information (6x6, right perturbation at the mean).
 struct PosePrior {
   Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();

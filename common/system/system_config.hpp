@@ -5,11 +5,13 @@
 // misspelled section or key is an error everywhere.
 
 #include "descriptor/polar_descriptor.hpp"
+#include "initializer_node/initializer_node.hpp"
 #include "map/submap_database.hpp"
 #include "map_server_node/map_server_node.hpp"
 #include "mapping/central_session_builder.hpp"
 #include "node/process_config.hpp"
 #include "odometry_node/odometry_node.hpp"
+#include "optimizer/localizer.hpp"
 #include "transport/channels.hpp"
 #include "transport/transport.hpp"
 
@@ -24,6 +26,8 @@ struct SystemConfig {
   SubmapConfig submaps;              // Eq. 2: one rule for built maps and merged updates
   MapServerConfig map_server;
   CentralSessionConfig map_builder;  // liloc_map build
+  InitializerProcessConfig initializer;
+  LocalizerConfig optimizer;  // the joint optimizer (the egocentric factor graph)
 
   template <class V>
   void visit_fields(V& v) {
@@ -35,12 +39,15 @@ struct SystemConfig {
     v("submaps", submaps);
     v("map_server", map_server);
     v("map_builder", map_builder);
+    v("initializer", initializer);
+    v("optimizer", optimizer);
   }
 
   OdometryNodeConfig odometry_node() const { return {channels, sensors, odometry}; }
   MapServerNodeConfig map_server_node() const {
     return {channels, descriptor, submaps, map_server};
   }
+  InitializerNodeConfig initializer_node() const { return {channels, descriptor, initializer}; }
 };
 
 }  // namespace liloc

@@ -22,9 +22,11 @@ struct ChannelConfig {
   std::string status = "STATUS";            // status_t, as "<robot>.STATUS.<process>"
   std::string submap = "SUBMAP";            // submap_t, replies addressed to the robot
   // Global.
-  std::string map_request = "MAP.REQUEST";  // submap_request_t
-  std::string map_update = "MAP.UPDATE";    // map_update_t
-  std::string map_info = "MAP.INFO";        // map_info_t
+  std::string map_request = "MAP.REQUEST";                    // submap_request_t
+  std::string map_update = "MAP.UPDATE";                      // map_update_t
+  std::string map_info = "MAP.INFO";                          // map_info_t
+  std::string descriptor_request = "MAP.DESCRIPTOR_REQUEST";  // descriptor_request_t
+  std::string descriptors = "DESCRIPTORS";  // keyframe_descriptors_t, per robot, replies
 
   template <class V>
   void visit_fields(V& v) {
@@ -41,6 +43,8 @@ struct ChannelConfig {
     v("map_request", map_request);
     v("map_update", map_update);
     v("map_info", map_info);
+    v("descriptor_request", descriptor_request);
+    v("descriptors", descriptors);
   }
   // Names are LCM channels (a robot id and a dot before per-robot ones): not empty, at most
   // 40 characters of letters, digits, '.', '_' or '-'.

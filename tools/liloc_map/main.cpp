@@ -8,6 +8,7 @@
 //   liloc_map export DIR OUT.pcd [--voxel-m 0.2]   all clouds in the map frame, one PCD
 //   liloc_map render DIR OUT.png [--px-per-m 2]    top-down image
 //   liloc_map prune DIR [--keep 2]                 removes old versions and unlisted files
+//   liloc_map localize DIR SCAN [--coarse x,y,yaw]  one scan in the map (exit 0: localized)
 //
 // A subcommand is one function taking its own argv (argv[0] = the subcommand) and one row
 // of kSubcommands.
@@ -26,6 +27,7 @@
 #include "app/program.hpp"
 #include "config/yaml_config.hpp"
 #include "liloc_map/map_build.hpp"
+#include "liloc_map/map_localize.hpp"
 #include "liloc_map/map_render.hpp"
 #include "pointcloud/voxel_grid.hpp"
 #include "pointcloud/voxel_index_table.hpp"
@@ -316,6 +318,8 @@ const Subcommand kSubcommands[] = {
     {"export", "all clouds in the map frame as one PCD", export_cloud},
     {"render", "top-down PNG of points, paths and submaps", render},
     {"prune", "remove old versions and unlisted keyframe files", prune},
+    {"localize", "one scan (PCD or KITTI .bin) in the map, with or without a coarse pose",
+     localize_scan},
 };
 
 void print_usage(std::ostream& out) {

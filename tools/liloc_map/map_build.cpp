@@ -8,12 +8,12 @@
 #include <optional>
 
 #include "app/program.hpp"
-#include "bridge/odometry_conversions.hpp"
 #include "config/yaml_config.hpp"
 #include "dataset/tum_trajectory.hpp"
 #include "eval/json_writer.hpp"
 #include "eval/trajectory_metrics.hpp"
 #include "map/keyframe_descriptors.hpp"
+#include "odometry_node/log_drive.hpp"
 #include "storage/map_store.hpp"
 #include "storage/submap_cloud_files.hpp"
 #include "system/system_config.hpp"
@@ -48,41 +48,27 @@ struct DriveResult {
 
 DriveResult run_odometry(const SystemConfig& config, const std::string& log_path,
                          const std::string& robot_id, CentralSessionBuilder& builder) {
-  // The odometry node, as the process runs it, on an in-process bus that the log is
-  // replayed into (deterministic, lossless); its keyframes go to the builder.
-  transport::TransportConfig in_process = config.transport;
-  in_process.url = "memq://";
-  in_process.publish_url.clear();
-  transport::Transport bus(in_process);
-  OdometryNode odometry(bus, robot_id, config.odometry_node());
   DriveResult drive;
-  bus.subscribe<liloc::odometry_t>(
-      transport::robot_channel(robot_id, config.channels.odom),
-      [&](const liloc::odometry_t&, const transport::ReceiveInfo&) { ++drive.scans; });
-  bus.subscribe<liloc::keyframe_t>(
-      transport::robot_channel(robot_id, config.channels.keyframe),
-      [&](const liloc::keyframe_t& msg, const transport::ReceiveInfo&) {
-        const Keyframe keyframe = bridge::from_msg(msg);
+  const LogDrive run = run_odometry_on_log(
+      log_path, robot_id, config.odometry_node(), config.transport, [&](const Keyframe& keyframe) {
         builder.add(keyframe);
         MapKeyframe kf;
         kf.utime_us = keyframe.utime_us;
         kf.T_map_body = keyframe.T_odom_body;
         drive.odometry_keyframes.push_back(kf);
         if (drive.odometry_keyframes.size() % 200 == 0) {
-          spdlog::info("{} keyframes, {} sweeps", drive.odometry_keyframes.size(), drive.scans);
+          spdlog::info("{} keyframes", drive.odometry_keyframes.size());
         }
       });
-  const transport::ReplayResult replay = transport::replay_log(log_path, bus, {});
-  if (replay.damage.any()) {
+  if (run.damage.any()) {
     // A map must not be built from part of a drive without saying so.
     throw std::runtime_error(
-        log_path + ": damaged log (" + std::to_string(replay.damage.corrupt_regions) +
-        " corrupt region(s), " + std::to_string(replay.damage.bytes_skipped) + " bytes skipped" +
-        (replay.damage.truncated_end ? ", the last event truncated" : "") + "); no map built");
+        log_path + ": damaged log (" + std::to_string(run.damage.corrupt_regions) +
+        " corrupt region(s), " + std::to_string(run.damage.bytes_skipped) + " bytes skipped" +
+        (run.damage.truncated_end ? ", the last event truncated" : "") + "); no map built");
   }
-  odometry.finish();
-  bus.drain();
-  drive.counters = odometry.counters();
+  drive.scans = run.sweeps;
+  drive.counters = run.counters;
   if (drive.odometry_keyframes.empty()) {
     throw std::runtime_error("no keyframes from " + log_path + ": does it hold " +
                              transport::robot_channel(robot_id, config.channels.lidar) + " and " +

@@ -1,0 +1,325 @@
+// bench_efg: the joint optimizer (egocentric factor graph) on simulated sessions against the
+// map of session A, in the form of the paper's Tables II and III, with the ablations.
+//
+// For each case (a LiDAR and a session): the odometry runs over the session's log as the
+// process would; the first keyframe is initialized (coarse-to-fine from a coarse pose 3 m
+// and 20 degrees off the truth, or globally for session D, keyframe after keyframe until
+// it localizes); then every keyframe goes through the localizer (mode by Eq. 11's overlap,
+// scan match, JFGO). Errors are in the map frame: the truth is carried into it by the
+// rigid transform that fits the map's keyframes to session A's truth, so the map's own
+// error counts.
+//
+//   bench_efg --data DIR/campus --maps DIR/map_%s [--lidars hdl32] [--sessions B,C,D]
+//             [--variants full,direct,...]
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "app/program.hpp"
+#include "config/yaml_config.hpp"
+#include "dataset/tum_trajectory.hpp"
+#include "eval/json_writer.hpp"
+#include "eval/latency_stats.hpp"
+#include "eval/trajectory_metrics.hpp"
+#include "initializer/map_directory.hpp"
+#include "initializer/pose_initializer.hpp"
+#include "odometry_node/log_drive.hpp"
+#include "optimizer/localizer.hpp"
+#include "sim/lidar_model.hpp"
+#include "sim/simulation_config.hpp"
+#include "system/system_config.hpp"
+
+namespace {
+using namespace liloc;
+
+constexpr double kPi = 3.141592653589793;
+constexpr double kFailedM = 2.0;  // a pose this far from the truth: the run failed
+
+struct Row {
+  std::string session, lidar, variant;
+  double ate_m = 0, xyz_rpy = 0, rot_deg = 0;
+  bool failed = false;
+  double rlm_share = 0, rlm_share_truth = 0;
+  double jfgo_ms_median = 0, latency_ms_median = 0, latency_ms_p99 = 0, max_jump_m = 0;
+  int keyframes = 0;
+  std::string init;  // how the session started
+};
+
+// The variant's localizer config from the full method's.
+LocalizerConfig variant_config(LocalizerConfig c, const std::string& variant) {
+  if (variant == "direct") {
+    c.graph.direct = true;
+  } else if (variant == "scan_to_map_only") {
+    c.scan_to_map_only = true;
+  } else if (variant == "ilm_only") {
+    c.ilm_only = true;
+  } else if (variant == "no_mode_switch") {
+    c.no_mode_switch = true;
+  } else if (variant == "unweighted") {
+    c.graph.unweighted = true;
+  } else if (variant == "no_marginalization") {
+    c.graph.no_marginalization = true;
+  } else if (variant != "full") {
+    throw std::invalid_argument("unknown variant '" + variant + "'");
+  }
+  return c;
+}
+
+struct Session {
+  std::vector<Keyframe> keyframes;
+  std::vector<ImuSample> imu;
+  Trajectory truth;
+};
+
+std::vector<ImuSample> imu_between(const std::vector<ImuSample>& imu, int64_t from_us,
+                                   int64_t to_us) {
+  auto first = std::lower_bound(imu.begin(), imu.end(), from_us,
+                                [](const ImuSample& s, int64_t t) { return s.utime_us < t; });
+  if (first != imu.begin()) {
+    --first;  // the sample at or before the start covers it
+  }
+  const auto last = std::upper_bound(first, imu.end(), to_us,
+                                     [](int64_t t, const ImuSample& s) { return t < s.utime_us; });
+  return {first, last};
+}
+
+Row run_case(const OpenedMap& map, const Eigen::Isometry3d& T_map_world, const Session& session,
+             const std::string& session_name, const std::string& lidar, const std::string& variant,
+             const LocalizerConfig& full, const InitializerConfig& init_config,
+             const PolarDescriptorConfig& descriptor) {
+  Row row;
+  row.session = session_name;
+  row.lidar = lidar;
+  row.variant = variant;
+  const SubmapTargets targets(map.points, 64);
+  const auto truth_in_map = [&](const Keyframe& kf) -> std::optional<Eigen::Isometry3d> {
+    const std::optional<Eigen::Isometry3d> T = session.truth.at(kf.utime_us * 1e-6, 0.1);
+    return T ? std::optional<Eigen::Isometry3d>(T_map_world * *T) : std::nullopt;
+  };
+  const auto query_of = [](const Keyframe& kf) {
+    InitQuery q;
+    q.keyframe_id = kf.id;
+    q.utime_us = kf.utime_us;
+    q.T_odom_body = kf.T_odom_body;
+    q.cloud_body = kf.cloud_body;
+    return q;
+  };
+  // Initialization.
+  const PoseInitializer initializer(init_config, descriptor);
+  size_t first = 0;
+  std::optional<InitResult> init;
+  for (; first < session.keyframes.size() && !init; ++first) {
+    const Keyframe& kf = session.keyframes[first];
+    const std::optional<Eigen::Isometry3d> truth = truth_in_map(kf);
+    InitResult r;
+    if (session_name == "D") {
+      r = initializer.global(map.index, query_of(kf), targets);
+    } else if (truth) {
+      CoarsePose coarse;
+      coarse.x_m = truth->translation().x() + 2.0;
+      coarse.y_m = truth->translation().y() - 2.2;
+      coarse.yaw_rad =
+          std::atan2(truth->linear()(1, 0), truth->linear()(0, 0)) + 20.0 * kPi / 180.0;
+      r = initializer.coarse_to_fine(map.index, query_of(kf), coarse, targets);
+    }
+    if (r.localized()) {
+      init = r;
+      break;
+    }
+  }
+  if (!init) {
+    row.failed = true;
+    row.init = "never initialized";
+    return row;
+  }
+  row.init = init->method + " at keyframe " + std::to_string(first);
+  Localizer localizer(variant_config(full, variant), map.index, targets);
+  const auto to_localizer = [&](size_t k) {
+    const Keyframe& kf = session.keyframes[k];
+    LocalizerKeyframe in;
+    in.id = kf.id;
+    in.utime_us = kf.utime_us;
+    in.T_odom_body = kf.T_odom_body;
+    in.cloud_body = kf.cloud_body;
+    if (k > 0) {
+      in.imu = imu_between(session.imu, session.keyframes[k - 1].utime_us, kf.utime_us);
+    }
+    return in;
+  };
+  localizer.start(to_localizer(first), init->best->T_map_body, init->best->covariance);
+  std::vector<StampedPose> estimate, truth;
+  std::vector<double> jfgo_ms, latency_ms;
+  int rlm = 0, rlm_truth = 0;
+  Eigen::Isometry3d previous_T_map_odom = localizer.T_map_odom();
+  for (size_t k = first + 1; k < session.keyframes.size(); ++k) {
+    const LocalizerOutput out = localizer.add(to_localizer(k));
+    const Keyframe& kf = session.keyframes[k];
+    const std::optional<Eigen::Isometry3d> T_truth = truth_in_map(kf);
+    if (!T_truth) {
+      continue;
+    }
+    estimate.push_back({kf.utime_us * 1e-6, out.T_map_body});
+    truth.push_back({kf.utime_us * 1e-6, *T_truth});
+    rlm += out.mode == LocalizationMode::kRelocalization;
+    // The truth's own overlap (Eq. 11) with the map: where RLM is right.
+    double overlap = 0.0;
+    for (const KdTree::Hit& hit : map.index.submaps().nearest_submaps(T_truth->translation(), 3)) {
+      overlap = std::max(overlap, overlap_ratio(T_truth->translation(), full.overlap_half_side_m,
+                                                map.index.submaps().submap(hit.id)->bounds));
+    }
+    rlm_truth += overlap >= full.overlap_threshold;
+    jfgo_ms.push_back(out.graph.solve_ms);
+    latency_ms.push_back(out.total_ms);
+    const Eigen::Isometry3d T_map_odom = localizer.T_map_odom();
+    // How far the new correction moves the keyframe's pose in the map frame.
+    row.max_jump_m =
+        std::max(row.max_jump_m, ((previous_T_map_odom * kf.T_odom_body).translation() -
+                                  (T_map_odom * kf.T_odom_body).translation())
+                                     .norm());
+    previous_T_map_odom = T_map_odom;
+    if ((out.T_map_body.translation() - T_truth->translation()).norm() > kFailedM) {
+      row.failed = true;
+    }
+  }
+  eval::EvalConfig eval_config;
+  eval_config.alignment = eval::AlignmentMode::kFixed;
+  const eval::TrajectoryMetrics m =
+      eval::evaluate_trajectory(Trajectory(truth), Trajectory(estimate), eval_config);
+  row.ate_m = m.ate_position_rmse_m;
+  row.xyz_rpy = m.ate_full_rmse;
+  row.rot_deg = m.rotation_rmse_deg;
+  row.keyframes = static_cast<int>(estimate.size());
+  row.rlm_share = estimate.empty() ? 0.0 : static_cast<double>(rlm) / estimate.size();
+  row.rlm_share_truth = estimate.empty() ? 0.0 : static_cast<double>(rlm_truth) / estimate.size();
+  row.jfgo_ms_median = eval::quantile(jfgo_ms, 0.5);
+  row.latency_ms_median = eval::quantile(latency_ms, 0.5);
+  row.latency_ms_p99 = eval::quantile(latency_ms, 0.99);
+  return row;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string data = "/tmp/full/sim/campus", maps = "/tmp/full/map_%s", lidars = "hdl32";
+  std::string sessions = "B,C,D";
+  std::string variants =
+      "full,direct,scan_to_map_only,ilm_only,no_mode_switch,unweighted,no_marginalization";
+  std::string config_path = "config/liloc.yaml", json_path = "bench/results/efg.json";
+  CommandLine cli("bench_efg",
+                  "The joint optimizer on simulated sessions (paper Tables II-III form).");
+  cli.add_option("data", &data, "simulated sessions: <data>/<lidar>/<session>/");
+  cli.add_option("maps", &maps, "map directory of session A per LiDAR (%s: the LiDAR)");
+  cli.add_option("lidars", &lidars, "comma list, or all");
+  cli.add_option("sessions", &sessions, "comma list");
+  cli.add_option("variants", &variants, "full and ablations, comma list");
+  cli.add_option("config", &config_path, "system config");
+  cli.add_option("json", &json_path, "result file ('' for none)");
+  return run_program(cli, "bench_efg", argc, argv, [&]() -> int {
+    const SystemConfig config = load_config<SystemConfig>(config_path);
+    const std::vector<std::string> lidar_list =
+        lidars == "all" ? sim::lidar_models() : split_list(lidars);
+    std::vector<Row> rows;
+    for (const std::string& lidar : lidar_list) {
+      char dir[512];
+      std::snprintf(dir, sizeof(dir), maps.c_str(), lidar.c_str());
+      const OpenedMap map(dir, config.descriptor, 0.3);
+      // The map frame against the world: the map's keyframes fitted to session A's truth.
+      const Trajectory truth_a = read_tum(data + "/" + lidar + "/A/ground_truth.tum");
+      std::vector<Eigen::Vector3d> in_map, in_world;
+      for (const MapKeyframe& kf : map.data.keyframes) {
+        if (const auto T = truth_a.at(kf.utime_us * 1e-6, 0.1)) {
+          in_map.push_back(kf.T_map_body.translation());
+          in_world.push_back(T->translation());
+        }
+      }
+      const Eigen::Isometry3d T_map_world = eval::fit_rigid_alignment(in_world, in_map);
+      for (const std::string& name : split_list(sessions)) {
+        const std::string session_dir = data + "/" + lidar + "/" + name;
+        Session session;
+        session.truth = read_tum(session_dir + "/ground_truth.tum");
+        OdometryNodeConfig odometry;
+        const sim::SimulationConfig sim_config;
+        odometry.odometry.lidar_translation_m = sim_config.rig.lidar_translation_m;
+        odometry.odometry.lidar_rpy_deg = sim_config.rig.lidar_rpy_deg;
+        odometry.odometry.max_range_m = sim::lidar_spec(lidar).max_range_m;
+        run_odometry_on_log(
+            session_dir + "/session.lcmlog", "robot0", odometry, transport::TransportConfig{},
+            [&](const Keyframe& kf) { session.keyframes.push_back(kf); },
+            [&](const ImuSample& s) { session.imu.push_back(s); });
+        for (const std::string& variant : split_list(variants)) {
+          if (shutdown_requested()) {
+            throw std::runtime_error("interrupted");
+          }
+          const Row r = run_case(map, T_map_world, session, name, lidar, variant, config.optimizer,
+                                 config.initializer.search, config.descriptor);
+          spdlog::info(
+              "{} {} {}: ATE {:.3f} m, RLM {:.0f} % (truth {:.0f} %), JFGO {:.1f} ms, "
+              "latency {:.1f} / {:.1f} ms{} ({})",
+              lidar, name, variant, r.ate_m, 100 * r.rlm_share, 100 * r.rlm_share_truth,
+              r.jfgo_ms_median, r.latency_ms_median, r.latency_ms_p99, r.failed ? ", FAILED" : "",
+              r.init);
+          rows.push_back(r);
+        }
+      }
+    }
+    std::printf(
+        "| session | lidar | variant | ATE (m) | xyz_rpy | rot (deg) | failed | RLM share | RLM "
+        "share of the truth | JFGO median (ms) | latency median / p99 (ms) | max jump (m) |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for (const Row& r : rows) {
+      std::printf(
+          "| %s | %s | %s | %.3f | %.3f | %.2f | %s | %.2f | %.2f | %.1f | %.1f / %.1f | %.2f |\n",
+          r.session.c_str(), r.lidar.c_str(), r.variant.c_str(), r.ate_m, r.xyz_rpy, r.rot_deg,
+          r.failed ? "yes" : "no", r.rlm_share, r.rlm_share_truth, r.jfgo_ms_median,
+          r.latency_ms_median, r.latency_ms_p99, r.max_jump_m);
+    }
+    if (!json_path.empty()) {
+      eval::JsonWriter json;
+      json.begin_object().key("benchmark").string("efg").key("rows").begin_array();
+      for (const Row& r : rows) {
+        json.begin_object()
+            .key("world")
+            .string("campus")
+            .key("session")
+            .string(r.session)
+            .key("lidar")
+            .string(r.lidar)
+            .key("variant")
+            .string(r.variant)
+            .key("ate_m")
+            .number(r.ate_m)
+            .key("xyz_rpy")
+            .number(r.xyz_rpy)
+            .key("rot_deg")
+            .number(r.rot_deg)
+            .key("failed")
+            .boolean(r.failed)
+            .key("rlm_share")
+            .number(r.rlm_share)
+            .key("rlm_share_truth")
+            .number(r.rlm_share_truth)
+            .key("jfgo_ms_median")
+            .number(r.jfgo_ms_median)
+            .key("latency_ms_median")
+            .number(r.latency_ms_median)
+            .key("latency_ms_p99")
+            .number(r.latency_ms_p99)
+            .key("max_jump_m")
+            .number(r.max_jump_m)
+            .key("init")
+            .string(r.init)
+            .end_object();
+      }
+      json.end_array().end_object();
+      std::ofstream(json_path) << json.str() << "\n";
+    }
+    return 0;
+  });
+}
