@@ -148,6 +148,18 @@ TEST_F(ConfigFile, DumpedConfigLoadsBackEqual) {
   EXPECT_TRUE(back.offset_m.isApprox(c.offset_m));
 }
 
+// Numbers are written as the shortest text that reads back as the same value.
+TEST_F(ConfigFile, DumpedNumbersAreShortAndExact) {
+  SampleConfig c;
+  c.rate_hz = 0.6;
+  c.inner.weights = {0.1, 1e-7, 1.0 / 3.0};
+  const std::string text = dump_config(c);
+  EXPECT_NE(text.find("rate_hz: 0.6\n"), std::string::npos) << text;
+  const SampleConfig back = load_config<SampleConfig>(write(text));
+  EXPECT_EQ(back.rate_hz, 0.6);
+  EXPECT_EQ(back.inner.weights, c.inner.weights);
+}
+
 // Values a config must never take: a non-finite number, a key given twice (YAML keeps
 // both and the first would win silently), a directory given as the file.
 TEST_F(ConfigFile, RefusesNonFiniteNumbersDuplicateKeysAndDirectories) {

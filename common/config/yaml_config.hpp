@@ -18,6 +18,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <charconv>
 #include <cmath>
 #include <set>
 #include <sstream>
@@ -240,6 +241,11 @@ class YamlWriter {
         write(value.data()[i]);
       }
       out_ << YAML::EndSeq;
+    } else if constexpr (std::is_floating_point_v<T>) {
+      // The shortest text that reads back as the same value: 0.6, not 0.59999999999999998.
+      char text[64];
+      const std::to_chars_result end = std::to_chars(text, text + sizeof(text), value);
+      out_ << std::string(text, end.ptr);
     } else {
       out_ << value;
     }
