@@ -74,4 +74,13 @@ liloc::pose_t to_msg(const CoarsePose& c, int64_t utime, const std::string& robo
   return msg;
 }
 
+InitQuery init_query_from_msg(const liloc::keyframe_t& msg) {
+  InitQuery query;
+  query.keyframe_id = msg.keyframe_id;
+  query.utime_us = msg.header.utime;
+  query.T_odom_body = from_msg(msg.pose);
+  query.cloud_body = from_msg(msg.cloud);
+  return query;
+}
+
 }  // namespace liloc::bridge

@@ -3,6 +3,7 @@
 
 #include "initializer/pose_initializer.hpp"
 #include "liloc/init_result_t.hpp"
+#include "liloc/keyframe_t.hpp"
 #include "liloc/pose_t.hpp"
 
 namespace liloc::bridge {
@@ -16,5 +17,9 @@ InitAnswer from_msg(const liloc::init_result_t& msg);
 // std::invalid_argument for a non-finite pose or covariance.
 CoarsePose coarse_pose_from_msg(const liloc::pose_t& msg);
 liloc::pose_t to_msg(const CoarsePose& coarse, int64_t utime, const std::string& robot_id);
+
+// A robot's keyframe as the query of an initialization. Throws std::invalid_argument for a
+// non-finite pose.
+InitQuery init_query_from_msg(const liloc::keyframe_t& msg);
 
 }  // namespace liloc::bridge

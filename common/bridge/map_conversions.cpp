@@ -239,6 +239,51 @@ liloc::map_info_t to_msg(const MapData& map, const MapServiceCounters& counters,
   return msg;
 }
 
+ReceivedMapUpdate receive_update(const liloc::map_update_t& msg) {
+  ReceivedMapUpdate received;
+  received.robot_id = msg.header.robot_id;
+  received.session_id = msg.session_id;
+  received.update_id = msg.update_id;
+  try {
+    received.part = from_msg(msg);
+  } catch (const std::invalid_argument& e) {
+    received.malformed = e.what();
+  }
+  return received;
+}
+
+MapData from_msg(const liloc::map_info_t& msg) {
+  MapData map;
+  map.map_id = msg.map_id;
+  map.version = msg.map_version;
+  for (const liloc::submap_info_t& info : msg.submaps) {
+    Submap s;
+    s.id = info.submap_id;
+    s.centroid = Eigen::Vector3d(info.centroid[0], info.centroid[1], info.centroid[2]);
+    s.bounds = get_bounds(info.bounds_xy);
+    s.source_session = info.source_session;
+    const bool finite_bounds = std::isfinite(s.bounds.min_x) && std::isfinite(s.bounds.max_x) &&
+                               std::isfinite(s.bounds.min_y) && std::isfinite(s.bounds.max_y);
+    if (!s.centroid.allFinite() || !finite_bounds) {
+      throw std::invalid_argument("map info: submap " + std::to_string(s.id) +
+                                  " has a non-finite centroid or bounds");
+    }
+    map.submaps.push_back(s);
+  }
+  return map;
+}
+
+liloc::descriptor_request_t to_msg(const DescriptorRequest& request) {
+  liloc::descriptor_request_t msg;
+  msg.header = make_header(request.utime_us, request.robot_id, "map");
+  msg.request_id = request.request_id;
+  return msg;
+}
+
+DescriptorRequest from_msg(const liloc::descriptor_request_t& msg) {
+  return {msg.header.robot_id, msg.request_id, msg.header.utime};
+}
+
 liloc::keyframe_descriptors_t to_msg(const KeyframeIndexPart& part, int64_t utime) {
   liloc::keyframe_descriptors_t msg;
   msg.header = make_header(utime, part.robot_id, "map");

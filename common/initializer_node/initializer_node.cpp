@@ -10,12 +10,27 @@
 #include "bridge/lcm_conversions.hpp"
 #include "bridge/map_conversions.hpp"
 #include "bridge/status_report.hpp"
-#include "liloc/descriptor_request_t.hpp"
-#include "liloc/status_t.hpp"
-#include "liloc/submap_request_t.hpp"
 #include "node/reply_route.hpp"
 
 namespace liloc {
+namespace {
+
+// A message's core value, or none if it does not convert (counted in `rejected`, logged
+// rate-limited with the reason).
+template <class Msg, class Convert>
+auto convert(const Msg& msg, Convert convert_msg, int64_t& rejected, const std::string& what)
+    -> std::optional<decltype(convert_msg(msg))> {
+  try {
+    return convert_msg(msg);
+  } catch (const std::invalid_argument& e) {
+    if (should_log(++rejected)) {
+      spdlog::warn("{} refused: {} ({} messages refused so far)", what, e.what(), rejected);
+    }
+    return std::nullopt;
+  }
+}
+
+}  // namespace
 
 void InitializerProcessConfig::validate() const {
   if (!(global_sigma_xy_m > 0) || !(request_period_s > 0 && request_period_s <= 600) ||
@@ -54,21 +69,49 @@ InitializerNode::InitializerNode(transport::Transport& bus, const std::string& r
   status_channel_ = channel(config.channels.status) + ".initializer";
   bus_.subscribe<liloc::keyframe_t>(
       channel(config.channels.keyframe),
-      [this](const liloc::keyframe_t& m, const transport::ReceiveInfo&) { on_keyframe(m); });
+      [this](const liloc::keyframe_t& m, const transport::ReceiveInfo&) {
+        ++counters_.keyframes;
+        if (!wanted_) {
+          return;  // its cloud is not even decoded
+        }
+        if (auto query =
+                convert(m, bridge::init_query_from_msg, counters_.rejected_messages, "keyframe")) {
+          on_keyframe(std::move(*query));
+        }
+      });
   bus_.subscribe<liloc::pose_t>(
       channel(config.channels.coarse_pose),
-      [this](const liloc::pose_t& m, const transport::ReceiveInfo&) { on_coarse_pose(m); });
+      [this](const liloc::pose_t& m, const transport::ReceiveInfo&) {
+        if (auto coarse = convert(m, bridge::coarse_pose_from_msg, counters_.rejected_messages,
+                                  "coarse pose")) {
+          on_coarse_pose(*coarse);
+        }
+      });
   bus_.subscribe<liloc::map_info_t>(
-      config.channels.map_info,
-      [this](const liloc::map_info_t& m, const transport::ReceiveInfo&) { on_map_info(m); });
+      config.channels.map_info, [this](const liloc::map_info_t& m, const transport::ReceiveInfo&) {
+        const auto from = [](const liloc::map_info_t& msg) { return bridge::from_msg(msg); };
+        if (auto info = convert(m, from, counters_.rejected_messages, "map info")) {
+          on_map_info(std::move(*info));
+        }
+      });
   replies.subscribe<liloc::keyframe_descriptors_t>(
       channel(config.channels.descriptors),
       [this](const liloc::keyframe_descriptors_t& m, const transport::ReceiveInfo&) {
-        on_descriptors(m);
+        const auto from = [](const liloc::keyframe_descriptors_t& msg) {
+          return bridge::from_msg(msg);
+        };
+        if (auto part = convert(m, from, counters_.rejected_messages, "keyframe index chunk")) {
+          on_descriptors(std::move(*part));
+        }
       });
   replies.subscribe<liloc::submap_t>(
       channel(config.channels.submap),
-      [this](const liloc::submap_t& m, const transport::ReceiveInfo&) { on_submap(m); });
+      [this](const liloc::submap_t& m, const transport::ReceiveInfo&) {
+        const auto from = [](const liloc::submap_t& msg) { return bridge::from_msg(msg); };
+        if (auto part = convert(m, from, counters_.rejected_messages, "submap reply")) {
+          on_submap(std::move(*part));
+        }
+      });
 }
 
 std::vector<transport::Transport*> InitializerNode::own_transports() {
@@ -76,21 +119,7 @@ std::vector<transport::Transport*> InitializerNode::own_transports() {
                   : std::vector<transport::Transport*>{};
 }
 
-void InitializerNode::on_keyframe(const liloc::keyframe_t& msg) {
-  ++counters_.keyframes;
-  if (!wanted_) {
-    return;
-  }
-  InitQuery query;
-  query.keyframe_id = msg.keyframe_id;
-  query.utime_us = msg.header.utime;
-  try {
-    query.T_odom_body = bridge::from_msg(msg.pose);
-  } catch (const std::invalid_argument&) {
-    ++counters_.rejected_messages;
-    return;
-  }
-  query.cloud_body = bridge::from_msg(msg.cloud);
+void InitializerNode::on_keyframe(InitQuery query) {
   keyframes_.push_back(std::move(query));
   while (keyframes_.size() > 10) {
     keyframes_.pop_front();
@@ -98,15 +127,7 @@ void InitializerNode::on_keyframe(const liloc::keyframe_t& msg) {
   try_initialize();
 }
 
-void InitializerNode::on_coarse_pose(const liloc::pose_t& msg) {
-  CoarsePose coarse;
-  try {
-    coarse = bridge::coarse_pose_from_msg(msg);
-  } catch (const std::invalid_argument& e) {
-    ++counters_.rejected_messages;
-    spdlog::warn("{}: coarse pose refused: {}", robot_id_, e.what());
-    return;
-  }
+void InitializerNode::on_coarse_pose(const CoarsePose& coarse) {
   // A request to (re-)initialize; a pose this uncertain asks for a global search.
   if (coarse.sigma_xy_m > config_.initializer.global_sigma_xy_m) {
     coarse_.reset();
@@ -120,33 +141,34 @@ void InitializerNode::on_coarse_pose(const liloc::pose_t& msg) {
   try_initialize();
 }
 
-void InitializerNode::on_map_info(const liloc::map_info_t& msg) {
+void InitializerNode::on_map_info(MapData info) {
   const bool first = !map_info_;
-  map_info_ = msg;
+  const int64_t version = info.version;
+  map_info_ = std::move(info);
   if (first) {
     build_index();  // the index's chunks may have come before MAP.INFO
   }
-  if (index_ && index_->version() != msg.map_version && index_chunks_.empty()) {
+  if (index_ && index_->version() != version && index_chunks_.empty()) {
     request_index(node::wall_clock_us());  // the map grew
   }
 }
 
 void InitializerNode::request_index(int64_t now_us) {
-  liloc::descriptor_request_t request;
-  request.header = bridge::make_header(now_us, robot_id_, "map");
-  request.request_id = ++index_request_id_;
   index_chunks_.clear();
+  liloc::descriptor_request_t request =
+      bridge::to_msg(bridge::DescriptorRequest{robot_id_, ++index_request_id_, now_us});
   bus_.publish(config_.channels.descriptor_request, request);
   index_requested_us_ = now_us;
   ++counters_.index_requests;
 }
 
-void InitializerNode::on_descriptors(const liloc::keyframe_descriptors_t& msg) {
-  if (msg.request_id != index_request_id_ || msg.num_chunks < 1 || msg.chunk_index < 0 ||
-      msg.chunk_index >= msg.num_chunks) {
+void InitializerNode::on_descriptors(KeyframeIndexPart part) {
+  if (part.request_id != index_request_id_ || part.num_chunks < 1 || part.chunk_index < 0 ||
+      part.chunk_index >= part.num_chunks) {
     return;  // an older request's, or malformed
   }
-  index_chunks_[msg.chunk_index] = msg;
+  const int chunk = part.chunk_index;
+  index_chunks_[chunk] = std::move(part);
   build_index();
 }
 
@@ -158,25 +180,19 @@ void InitializerNode::build_index() {
   // The map as the index needs it: keyframes (pose, submap) and submaps (Tree_m).
   MapData map;
   map.version = index_chunks_.begin()->second.map_version;
+  map.submaps = map_info_->submaps;
   KeyframeDescriptors descriptors;
+  for (const auto& [index, chunk] : index_chunks_) {
+    for (const IndexedKeyframe& kf : chunk.keyframes) {
+      MapKeyframe m;
+      m.id = kf.id;
+      m.submap_id = kf.submap_id;
+      m.T_map_body = kf.T_map_body;
+      map.keyframes.push_back(m);
+      descriptors[kf.id] = *kf.descriptor;
+    }
+  }
   try {
-    for (const auto& [index, chunk] : index_chunks_) {
-      for (const IndexedKeyframe& kf : bridge::from_msg(chunk).keyframes) {
-        MapKeyframe m;
-        m.id = kf.id;
-        m.submap_id = kf.submap_id;
-        m.T_map_body = kf.T_map_body;
-        map.keyframes.push_back(m);
-        descriptors[kf.id] = *kf.descriptor;
-      }
-    }
-    for (const liloc::submap_info_t& info : map_info_->submaps) {
-      Submap s;
-      s.id = info.submap_id;
-      s.centroid = Eigen::Vector3d(info.centroid[0], info.centroid[1], info.centroid[2]);
-      s.bounds = {info.bounds_xy[0], info.bounds_xy[1], info.bounds_xy[2], info.bounds_xy[3]};
-      map.submaps.push_back(s);
-    }
     index_ = std::make_unique<MapIndex>(map, descriptors, config_.descriptor);
   } catch (const std::invalid_argument& e) {
     ++counters_.rejected_messages;
@@ -191,41 +207,38 @@ void InitializerNode::build_index() {
   try_initialize();
 }
 
-void InitializerNode::on_submap(const liloc::submap_t& msg) {
-  if (msg.submap_id < 0 || submaps_requested_us_.count(msg.submap_id) == 0) {
+void InitializerNode::on_submap(SubmapReplyPart part) {
+  const int64_t id = part.submap ? part.submap->id : -1;
+  if (id < 0 || submaps_requested_us_.count(id) == 0) {
     return;  // nothing matched, or a submap this node did not ask for (or has)
   }
-  std::vector<liloc::submap_t>& chunks = submap_chunks_[msg.submap_id];
-  if (!chunks.empty() && chunks.front().request_id != msg.request_id) {
+  std::vector<SubmapReplyPart>& chunks = submap_chunks_[id];
+  if (!chunks.empty() && chunks.front().request_id != part.request_id) {
     chunks.clear();  // a newer request's reply: start over
   }
-  chunks.push_back(msg);
-  if (static_cast<int>(chunks.size()) < msg.num_chunks) {
+  const int num_chunks = part.num_chunks;
+  chunks.push_back(std::move(part));
+  if (static_cast<int>(chunks.size()) < num_chunks) {
     return;
   }
   auto points = std::make_shared<std::vector<Eigen::Vector3f>>();
-  try {
-    for (const liloc::submap_t& chunk : chunks) {
-      const SubmapReplyPart part = bridge::from_msg(chunk);
-      if (!part.clouds) {
-        throw std::invalid_argument("a reply without clouds");
-      }
-      for (size_t k = 0; k < part.keyframes.size(); ++k) {
-        const Eigen::Isometry3f T = part.keyframes[k].T_map_body.cast<float>();
-        for (const Eigen::Vector3f& p : part.clouds->keyframe_cloud(k).points) {
-          points->push_back(T * p);
-        }
+  for (const SubmapReplyPart& chunk : chunks) {
+    if (!chunk.clouds) {
+      ++counters_.rejected_messages;  // a reply without clouds
+      submap_chunks_.erase(id);
+      return;  // asked again at the next period
+    }
+    for (size_t k = 0; k < chunk.keyframes.size(); ++k) {
+      const Eigen::Isometry3f T = chunk.keyframes[k].T_map_body.cast<float>();
+      for (const Eigen::Vector3f& p : chunk.clouds->keyframe_cloud(k).points) {
+        points->push_back(T * p);
       }
     }
-  } catch (const std::invalid_argument& e) {
-    ++counters_.rejected_messages;
-    submap_chunks_.erase(msg.submap_id);
-    return;  // asked again at the next period
   }
-  submap_chunks_.erase(msg.submap_id);
-  submaps_requested_us_.erase(msg.submap_id);
-  submaps_[msg.submap_id] = std::move(points);
-  submap_order_.push_back(msg.submap_id);
+  submap_chunks_.erase(id);
+  submaps_requested_us_.erase(id);
+  submaps_[id] = std::move(points);
+  submap_order_.push_back(id);
   while (submap_order_.size() > static_cast<size_t>(config_.initializer.max_cached_submaps)) {
     submaps_.erase(submap_order_.front());
     submap_order_.pop_front();
@@ -327,7 +340,7 @@ void InitializerNode::publish(const InitAnswer& answer) {
 
 void InitializerNode::tick(int64_t now_us) {
   const int64_t period_us = static_cast<int64_t>(config_.initializer.request_period_s * 1e6);
-  const bool stale = !index_ || (map_info_ && index_->version() != map_info_->map_version);
+  const bool stale = !index_ || (map_info_ && index_->version() != map_info_->version);
   if (stale && now_us - index_requested_us_ >= period_us) {
     request_index(now_us);  // the server may have started after us, or restarted
   }

@@ -20,11 +20,7 @@
 
 #include "descriptor/polar_descriptor.hpp"
 #include "initializer/pose_initializer.hpp"
-#include "liloc/keyframe_descriptors_t.hpp"
-#include "liloc/keyframe_t.hpp"
-#include "liloc/map_info_t.hpp"
-#include "liloc/pose_t.hpp"
-#include "liloc/submap_t.hpp"
+#include "map_service/map_service.hpp"
 #include "node/node.hpp"
 #include "transport/channels.hpp"
 #include "transport/transport.hpp"
@@ -91,13 +87,15 @@ class InitializerNode final : public node::Node {
   const Counters& counters() const { return counters_; }
 
  private:
-  void on_keyframe(const liloc::keyframe_t& msg);
-  void on_coarse_pose(const liloc::pose_t& msg);
-  void on_map_info(const liloc::map_info_t& msg);
-  void on_descriptors(const liloc::keyframe_descriptors_t& msg);
+  // Each message converted to its core type at the door (bridge/); what does not convert is
+  // counted in rejected_messages.
+  void on_keyframe(InitQuery query);
+  void on_coarse_pose(const CoarsePose& coarse);
+  void on_map_info(MapData info);
+  void on_descriptors(KeyframeIndexPart part);
   // Builds the index once every chunk of the latest reply and MAP.INFO are here.
   void build_index();
-  void on_submap(const liloc::submap_t& msg);
+  void on_submap(SubmapReplyPart part);
   // Runs a search on the newest keyframe if one is wanted and everything it needs is here.
   void try_initialize();
   void request_index(int64_t now_us);
@@ -120,15 +118,15 @@ class InitializerNode final : public node::Node {
   std::deque<InitQuery> keyframes_;  // the newest last
 
   // The map's keyframe index, assembled from its chunks (MAP.INFO for the submaps).
-  std::optional<liloc::map_info_t> map_info_;
+  std::optional<MapData> map_info_;  // MAP.INFO's version and submaps
   std::unique_ptr<MapIndex> index_;
   int64_t index_request_id_ = 0;
   int64_t index_requested_us_ = 0;
-  std::map<int, liloc::keyframe_descriptors_t> index_chunks_;  // of the latest request
+  std::map<int, KeyframeIndexPart> index_chunks_;  // of the latest request
   // Submaps' points in the map frame, from the replies' chunks.
   int64_t submap_request_id_ = 0;
   std::map<int64_t, int64_t> submaps_requested_us_;  // by submap id, until they arrive
-  std::map<int64_t, std::vector<liloc::submap_t>> submap_chunks_;
+  std::map<int64_t, std::vector<SubmapReplyPart>> submap_chunks_;
   std::map<int64_t, std::shared_ptr<const std::vector<Eigen::Vector3f>>> submaps_;
   std::deque<int64_t> submap_order_;  // oldest first
 

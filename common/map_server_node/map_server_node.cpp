@@ -83,11 +83,13 @@ MapServerNode::MapServerNode(transport::Transport& bus, const MapServerNodeConfi
   bus_.subscribe<liloc::descriptor_request_t>(
       config.channels.descriptor_request,
       [this](const liloc::descriptor_request_t& msg, const transport::ReceiveInfo&) {
-        on_descriptor_request(msg);
+        on_descriptor_request(bridge::from_msg(msg));
       });
   bus_.subscribe<liloc::map_update_t>(
       config.channels.map_update,
-      [this](const liloc::map_update_t& msg, const transport::ReceiveInfo&) { on_update(msg); });
+      [this](const liloc::map_update_t& msg, const transport::ReceiveInfo&) {
+        on_update(bridge::receive_update(msg));
+      });
   if (deduplicating()) {
     start_filling(map);
   } else {
@@ -132,45 +134,39 @@ KeyframeDescriptors MapServerNode::load_descriptors(const storage::MapStore& sto
   return out;
 }
 
-void MapServerNode::on_descriptor_request(const liloc::descriptor_request_t& msg) {
-  if (!is_valid_name(msg.header.robot_id)) {
+void MapServerNode::on_descriptor_request(const bridge::DescriptorRequest& request) {
+  if (!is_valid_name(request.robot_id)) {
     if (should_log(++requests_refused_)) {
       spdlog::warn("descriptor request from robot '{}' refused: not a valid robot id",
-                   printable_excerpt(msg.header.robot_id));
+                   printable_excerpt(request.robot_id));
     }
     return;
   }
   std::vector<KeyframeIndexPart> parts;
   {
     std::lock_guard<std::mutex> lock(service_mutex_);
-    parts = service_.keyframe_index(msg.header.robot_id, msg.request_id);
+    parts = service_.keyframe_index(request.robot_id, request.request_id);
   }
-  transport::Transport& bus = reply_bus(msg.header.robot_id);
+  transport::Transport& bus = reply_bus(request.robot_id);
   const std::string channel =
-      transport::robot_channel(msg.header.robot_id, config_.channels.descriptors);
+      transport::robot_channel(request.robot_id, config_.channels.descriptors);
   for (const KeyframeIndexPart& part : parts) {
-    liloc::keyframe_descriptors_t reply = bridge::to_msg(part, msg.header.utime);
+    liloc::keyframe_descriptors_t reply = bridge::to_msg(part, request.utime_us);
     bus.publish(channel, reply);
   }
   ++descriptor_requests_;
 }
 
-void MapServerNode::on_update(const liloc::map_update_t& msg) {
-  std::optional<MapUpdatePart> part;
-  std::string malformed;
-  try {
-    part = bridge::from_msg(msg);
-  } catch (const std::invalid_argument& e) {
-    malformed = e.what();
-  }
+void MapServerNode::on_update(bridge::ReceivedMapUpdate update) {
   UpdateOutcome outcome;
   MapDelta merged;
   int64_t rejected = 0;
   {
     // Reply workers plan under this lock meanwhile; a merge changes the map.
     std::lock_guard<std::mutex> lock(service_mutex_);
-    outcome = part ? service_.receive(std::move(*part), node::wall_clock_us())
-                   : service_.reject(msg.header.robot_id, msg.session_id, msg.update_id, malformed);
+    outcome = update.part ? service_.receive(std::move(*update.part), node::wall_clock_us())
+                          : service_.reject(update.robot_id, update.session_id, update.update_id,
+                                            update.malformed);
     if (outcome.status == UpdateOutcome::Status::kMerged) {
       merged = service_.take_unsaved();
     }
@@ -180,13 +176,13 @@ void MapServerNode::on_update(const liloc::map_update_t& msg) {
     // Logged the first time and then every 100th: a robot that keeps sending bad updates
     // must not flood the log (all are counted in updates_rejected).
     if (rejected % 100 == 1) {
-      spdlog::warn("update {} of {} rejected: {} ({} rejected so far)", msg.update_id,
-                   msg.header.robot_id, outcome.reason, rejected);
+      spdlog::warn("update {} of {} rejected: {} ({} rejected so far)", update.update_id,
+                   update.robot_id, outcome.reason, rejected);
     }
-    last_message_ = "rejected update from " + msg.header.robot_id + ": " + outcome.reason;
+    last_message_ = "rejected update from " + update.robot_id + ": " + outcome.reason;
   } else if (outcome.status == UpdateOutcome::Status::kMerged) {
-    spdlog::info("merged update {} of {}: {} keyframes, {} submaps", msg.update_id,
-                 msg.header.robot_id, outcome.new_keyframes.size(), outcome.new_submaps.size());
+    spdlog::info("merged update {} of {}: {} keyframes, {} submaps", update.update_id,
+                 update.robot_id, outcome.new_keyframes.size(), outcome.new_submaps.size());
     saver_.submit(std::move(merged));
     publish_info(node::wall_clock_us());
   }

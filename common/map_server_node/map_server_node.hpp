@@ -21,8 +21,6 @@
 
 #include "app/worker_pool.hpp"
 #include "descriptor/polar_descriptor.hpp"
-#include "liloc/descriptor_request_t.hpp"
-#include "liloc/map_update_t.hpp"
 #include "map/submap_database.hpp"
 #include "map_server_node/map_saver.hpp"
 #include "map_service/map_service.hpp"
@@ -34,6 +32,10 @@
 #include "transport/transport.hpp"
 
 namespace liloc {
+namespace bridge {
+struct DescriptorRequest;
+struct ReceivedMapUpdate;
+}  // namespace bridge
 
 struct MapServerConfig {
   std::string map_directory = "data/map";
@@ -100,8 +102,9 @@ class MapServerNode final : public node::Node {
   };
 
   static KeyframeDescriptors load_descriptors(const storage::MapStore& store, const MapData& map);
-  void on_descriptor_request(const liloc::descriptor_request_t& msg);
-  void on_update(const liloc::map_update_t& msg);
+  // Converted at the door (bridge/).
+  void on_descriptor_request(const bridge::DescriptorRequest& request);
+  void on_update(bridge::ReceivedMapUpdate update);
   void take_save_results();
   // Answers one request: planned under the service lock; clouds gathered, encoded and
   // sent without it, so that other requests and updates go on meanwhile.

@@ -29,11 +29,17 @@ OdometryNode::OdometryNode(transport::Transport& bus, const std::string& robot_i
   keyframe_channel_ = channel(config.channels.keyframe);
   status_channel_ = channel(config.channels.status) + ".odometry";
   bus_.subscribe<liloc::imu_t>(
-      imu_channel_,
-      [this](const liloc::imu_t& msg, const transport::ReceiveInfo&) { on_imu(msg); });
+      imu_channel_, [this](const liloc::imu_t& msg, const transport::ReceiveInfo&) {
+        size_t non_finite = 0;
+        const std::vector<ImuSample> samples = bridge::from_msg(msg, &non_finite);
+        on_imu(samples, non_finite);
+      });
   bus_.subscribe<liloc::lidar_scan_t>(
-      lidar_channel_,
-      [this](const liloc::lidar_scan_t& msg, const transport::ReceiveInfo&) { on_scan(msg); });
+      lidar_channel_, [this](const liloc::lidar_scan_t& msg, const transport::ReceiveInfo&) {
+        size_t non_finite = 0;
+        LidarScan scan = bridge::from_msg(msg, &non_finite);
+        on_scan(std::move(scan), non_finite);
+      });
   bus_.subscribe<liloc::correction_t>(
       channel(config.channels.correction),
       [this](const liloc::correction_t& msg, const transport::ReceiveInfo&) {
@@ -43,9 +49,8 @@ OdometryNode::OdometryNode(transport::Transport& bus, const std::string& robot_i
                config.odometry.use_imu ? "LiDAR-inertial" : "LiDAR only");
 }
 
-void OdometryNode::on_imu(const liloc::imu_t& msg) {
-  size_t non_finite = 0;
-  for (const ImuSample& s : bridge::from_msg(msg, &non_finite)) {
+void OdometryNode::on_imu(const std::vector<ImuSample>& samples, size_t non_finite) {
+  for (const ImuSample& s : samples) {
     ++imu_received_;
     if (const std::optional<std::string> why = implausible_imu(s, config_.sensors)) {
       reject("imu_implausible", "IMU sample refused: " + *why);
@@ -67,10 +72,8 @@ void OdometryNode::on_imu(const liloc::imu_t& msg) {
   publish(odometry_->process());
 }
 
-void OdometryNode::on_scan(const liloc::lidar_scan_t& msg) {
+void OdometryNode::on_scan(LidarScan scan, size_t non_finite) {
   ++scans_received_;
-  size_t non_finite = 0;
-  LidarScan scan = bridge::from_msg(msg, &non_finite);
   non_finite_points_ += static_cast<int64_t>(non_finite);
   if (const std::optional<std::string> why = implausible_scan(scan, config_.sensors)) {
     reject("scan_implausible", "sweep refused: " + *why);

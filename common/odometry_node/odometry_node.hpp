@@ -15,8 +15,6 @@
 
 #include "bridge/odometry_conversions.hpp"
 #include "gate/sensor_gate.hpp"
-#include "liloc/imu_t.hpp"
-#include "liloc/lidar_scan_t.hpp"
 #include "node/node.hpp"
 #include "odometry/lidar_inertial_odometry.hpp"
 #include "transport/channels.hpp"
@@ -55,8 +53,10 @@ class OdometryNode final : public node::Node {
   const std::map<std::string, int64_t>& rejected() const { return rejected_; }
 
  private:
-  void on_imu(const liloc::imu_t& msg);
-  void on_scan(const liloc::lidar_scan_t& msg);
+  // Converted at the door (bridge/): the samples or sweep, and how many non-finite values the
+  // conversion dropped.
+  void on_imu(const std::vector<ImuSample>& samples, size_t non_finite);
+  void on_scan(LidarScan scan, size_t non_finite);
   // Counts and logs (rate-limited) a refused message; keeps the reason for the status.
   void reject(const std::string& kind, const std::string& reason);
   // A stream's clock confirmed a new time: the estimate restarts there.
