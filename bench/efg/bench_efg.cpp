@@ -30,6 +30,7 @@
 #include "eval/trajectory_metrics.hpp"
 #include "initializer/map_directory.hpp"
 #include "initializer/pose_initializer.hpp"
+#include "math/so3.hpp"
 #include "odometry_node/log_drive.hpp"
 #include "optimizer/localizer.hpp"
 #include "sim/lidar_model.hpp"
@@ -125,8 +126,7 @@ Row run_case(const OpenedMap& map, const Eigen::Isometry3d& T_map_world, const S
       CoarsePose coarse;
       coarse.x_m = truth->translation().x() + 2.0;
       coarse.y_m = truth->translation().y() - 2.2;
-      coarse.yaw_rad =
-          std::atan2(truth->linear()(1, 0), truth->linear()(0, 0)) + 20.0 * kPi / 180.0;
+      coarse.yaw_rad = so3::yaw(truth->linear()) + 20.0 * kPi / 180.0;
       r = initializer.coarse_to_fine(map.index, query_of(kf), coarse, targets);
     }
     if (r.localized()) {

@@ -33,6 +33,7 @@
 #include "initializer/map_directory.hpp"
 #include "initializer/pose_initializer.hpp"
 #include "map/kd_tree.hpp"
+#include "math/so3.hpp"
 #include "odometry_node/log_drive.hpp"
 #include "sim/lidar_model.hpp"
 #include "sim/simulation_config.hpp"
@@ -232,8 +233,7 @@ std::vector<Row> run_case(const Options& options, const Map& map, const std::str
       const double r = 5.0 * std::sqrt(0.5 * (u(rng) + 1.0)), a = kPi * u(rng);
       coarse.x_m = expected->translation().x() + r * std::cos(a);
       coarse.y_m = expected->translation().y() + r * std::sin(a);
-      coarse.yaw_rad =
-          std::atan2(expected->linear()(1, 0), expected->linear()(0, 0)) + 30.0 * kDeg * u(rng);
+      coarse.yaw_rad = so3::yaw(expected->linear()) + 30.0 * kDeg * u(rng);
       coarse.sigma_xy_m = 5.0;
       coarse.sigma_yaw_rad = 30.0 * kDeg;
       const InitResult r_coarse =

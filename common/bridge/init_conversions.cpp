@@ -55,7 +55,7 @@ CoarsePose coarse_pose_from_msg(const liloc::pose_t& msg) {
   CoarsePose c;
   c.x_m = T.translation().x();
   c.y_m = T.translation().y();
-  c.yaw_rad = std::atan2(T.linear()(1, 0), T.linear()(0, 0));
+  c.yaw_rad = so3::yaw(T.linear());
   c.sigma_xy_m = std::sqrt(std::max(covariance(0, 0), covariance(1, 1)));
   c.sigma_yaw_rad = std::sqrt(covariance(5, 5));
   return c;

@@ -2,13 +2,13 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
 
 #include "math/so3.hpp"
+#include "math/stopwatch.hpp"
 #include "pointcloud/voxel_grid.hpp"
 
 namespace liloc {
@@ -20,18 +20,12 @@ constexpr double kDistinctYawRad = kPi / 6;  // candidates 30 degrees apart are 
 constexpr double kSameConvergedM = 0.1;
 constexpr double kSameConvergedRad = 0.01;
 
-double yaw_of(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
-double wrap(double a) { return std::remainder(a, 2.0 * kPi); }
 Eigen::Matrix3d rz(double yaw) { return so3::exp(Eigen::Vector3d(0, 0, yaw)); }
 
 // Two poses of the same place, as far as initialization tells places apart.
 bool same_place(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double distinct_m) {
   return (a.translation() - b.translation()).head<2>().norm() < distinct_m &&
-         std::abs(wrap(yaw_of(a.linear()) - yaw_of(b.linear()))) < kDistinctYawRad;
-}
-
-double ms_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+         std::abs(so3::wrap_angle(so3::yaw(a.linear()) - so3::yaw(b.linear()))) < kDistinctYawRad;
 }
 
 std::string describe(const InitCandidate& c) {
@@ -139,7 +133,7 @@ PoseInitializer::Query PoseInitializer::prepare(const InitQuery& query) const {
   Query q;
   const Eigen::Matrix3d R_odom_body = query.T_odom_body.linear();
   q.descriptor = make_level_polar_descriptor(query.cloud_body, R_odom_body, descriptor_);
-  q.R_level_body = rz(-yaw_of(R_odom_body)) * R_odom_body;
+  q.R_level_body = rz(-so3::yaw(R_odom_body)) * R_odom_body;
   for (const double voxel_m : config_.stages.voxel_m) {
     q.stage_points.push_back(sparse_points(query.cloud_body, static_cast<float>(voxel_m),
                                            static_cast<size_t>(config_.max_query_points)));
@@ -164,8 +158,8 @@ std::vector<InitCandidate> PoseInitializer::rank(
     c.submap_id = kf->submap_id;
     c.descriptor_distance = match.distance;
     c.yaw_rad = match.yaw_rad;
-    const double yaw = yaw_of(kf->T_map_body.linear()) + match.yaw_rad;
-    if (coarse && std::abs(wrap(yaw - coarse->yaw_rad)) >
+    const double yaw = so3::yaw(kf->T_map_body.linear()) + match.yaw_rad;
+    if (coarse && std::abs(so3::wrap_angle(yaw - coarse->yaw_rad)) >
                       std::max(3.0 * coarse->sigma_yaw_rad, 2.0 * sector_rad)) {
       continue;  // a heading the coarse pose rules out
     }
@@ -286,7 +280,7 @@ InitResult PoseInitializer::verify(const MapIndex& index, const Query& query,
     result.candidates = std::move(candidates);
     return result;
   }
-  const auto targets_start = std::chrono::steady_clock::now();
+  const Stopwatch targets_watch;
   std::vector<Track> tracks(candidates.size());
   for (size_t i = 0; i < candidates.size(); ++i) {
     for (const double voxel_m : config_.stages.voxel_m) {
@@ -294,8 +288,8 @@ InitResult PoseInitializer::verify(const MapIndex& index, const Query& query,
     }
     tracks[i].T_map_body = candidates[i].T_map_body_guess;
   }
-  result.targets_ms = ms_since(targets_start);
-  const auto registration_start = std::chrono::steady_clock::now();
+  result.targets_ms = targets_watch.ms();
+  const Stopwatch registration_watch;
   // Stage by stage; a start that reaches a better-ranked start's pose goes no further.
   std::vector<size_t> active(candidates.size());
   std::iota(active.begin(), active.end(), 0);
@@ -329,7 +323,7 @@ InitResult PoseInitializer::verify(const MapIndex& index, const Query& query,
     });
     polish(query, tracks[best], candidates[best]);
   }
-  result.registration_ms = ms_since(registration_start);
+  result.registration_ms = registration_watch.ms();
   const double min_inlier_ratio =
       global ? config_.min_inlier_ratio : config_.min_inlier_ratio_coarse;
   for (const size_t i : active) {
@@ -396,7 +390,7 @@ InitResult PoseInitializer::verify(const MapIndex& index, const Query& query,
 InitResult PoseInitializer::coarse_to_fine(const MapIndex& index, const InitQuery& query,
                                            const CoarsePose& coarse,
                                            const SubmapTargets& targets) const {
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   const Query q = prepare(query);
   // The submaps around the coarse position (Tree_m), then their keyframes.
   const Eigen::Vector3d position(coarse.x_m, coarse.y_m, 0.0);
@@ -417,13 +411,13 @@ InitResult PoseInitializer::coarse_to_fine(const MapIndex& index, const InitQuer
     }
   }
   InitResult result = verify(index, q, rank(q, keyframes, coarse), targets, false);
-  result.time_ms = ms_since(start);
+  result.time_ms = watch.ms();
   return result;
 }
 
 InitResult PoseInitializer::global(const MapIndex& index, const InitQuery& query,
                                    const SubmapTargets& targets) const {
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   const Query q = prepare(query);
   // Every keyframe ranked by its retrieval key's distance to the query's; the best
   // retrieval_candidates go on to the descriptor's distance.
@@ -445,18 +439,18 @@ InitResult PoseInitializer::global(const MapIndex& index, const InitQuery& query
     keyframes.push_back(ranked[i].second);
   }
   InitResult result = verify(index, q, rank(q, keyframes, std::nullopt), targets, true);
-  result.time_ms = ms_since(start);
+  result.time_ms = watch.ms();
   return result;
 }
 
 InitResult PoseInitializer::refine(const MapIndex& index, const InitQuery& query,
                                    const Eigen::Isometry3d& T_map_body_guess,
                                    const SubmapTargets& targets) const {
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   InitCandidate c;
   c.T_map_body_guess = T_map_body_guess;
   InitResult result = verify(index, prepare(query), {c}, targets, false);
-  result.time_ms = ms_since(start);
+  result.time_ms = watch.ms();
   return result;
 }
 

@@ -1,27 +1,19 @@
 #include "loop_closure/loop_closure.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 #include <utility>
 
+#include "math/so3.hpp"
+#include "math/stopwatch.hpp"
 #include "pointcloud/voxel_grid.hpp"
 
 namespace liloc {
 namespace {
 
 constexpr double kPi = 3.141592653589793;
-
-double yaw_of(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
-
-double wrap_angle(double a) { return std::remainder(a, 2.0 * kPi); }
-
-double elapsed_ms(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since)
-      .count();
-}
 
 std::vector<Eigen::Vector3f> transformed(const std::vector<Eigen::Vector3f>& points,
                                          const Eigen::Isometry3f& T) {
@@ -82,7 +74,7 @@ std::vector<LoopClosure> LoopClosureDetector::add(const MapKeyframe& keyframe,
                                 " was added before");
   }
   ++stats_.keyframes;
-  const auto descriptor_start = std::chrono::steady_clock::now();
+  const Stopwatch descriptor_watch;
   Stored query;
   query.id = keyframe.id;
   query.utime_us = keyframe.utime_us;
@@ -107,16 +99,16 @@ std::vector<LoopClosure> LoopClosureDetector::add(const MapKeyframe& keyframe,
                            [&](const Stored& s) { return s.utime_us <= newest_old_us; }) -
       keyframes_.begin());
   const std::vector<Candidate> candidates = select_candidates(query, old_end);
-  stats_.descriptor_ms += elapsed_ms(descriptor_start);
+  stats_.descriptor_ms += descriptor_watch.ms();
 
   std::vector<LoopClosure> closures;
   for (const Candidate& candidate : candidates) {
-    const auto verify_start = std::chrono::steady_clock::now();
+    const Stopwatch verify_watch;
     LoopClosure closure;
     if (verify(query, candidate, old_end, closure)) {
       closures.push_back(closure);
     }
-    stats_.verification_ms += elapsed_ms(verify_start);
+    stats_.verification_ms += verify_watch.ms();
   }
   keyframes_.push_back(std::move(query));
   return closures;
@@ -185,8 +177,9 @@ bool LoopClosureDetector::verify(const Stored& query, const Candidate& candidate
   // heading drifted further than the descriptor can resolve.
   const Eigen::Isometry3d T_target_query_odom = T_target_map * query.T_map_body;
   Eigen::Isometry3d T_map_query_start = query.T_map_body;
-  const double odom_yaw = yaw_of(query.T_map_body.linear()) - yaw_of(target.T_map_body.linear());
-  const double yaw_error = wrap_angle(candidate.match.yaw_rad - odom_yaw);
+  const double odom_yaw =
+      so3::yaw(query.T_map_body.linear()) - so3::yaw(target.T_map_body.linear());
+  const double yaw_error = so3::wrap_angle(candidate.match.yaw_rad - odom_yaw);
   if (std::abs(yaw_error) > 2.0 * kPi / descriptor_.sectors) {
     ++stats_.yaw_refined;
     T_map_query_start.linear() =

@@ -69,6 +69,10 @@ Eigen::Matrix3d from_rpy(const Eigen::Vector3d& rpy_rad) {
       .toRotationMatrix();
 }
 
+double yaw(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
+
+double wrap_angle(double angle_rad) { return std::remainder(angle_rad, 2.0 * M_PI); }
+
 Eigen::Matrix3d normalize(const Eigen::Matrix3d& R) {
   return Eigen::Quaterniond(R).normalized().toRotationMatrix();
 }

@@ -25,6 +25,12 @@ Eigen::Matrix3d right_jacobian_inverse(const Eigen::Vector3d& phi_rad);
 // R = Rz(yaw) Ry(pitch) Rx(roll): the roll-pitch-yaw convention of every config file.
 Eigen::Matrix3d from_rpy(const Eigen::Vector3d& rpy_rad);
 
+// Heading of R about the z axis (the yaw of from_rpy), in (-pi, pi].
+double yaw(const Eigen::Matrix3d& R);
+
+// An angle wrapped to [-pi, pi].
+double wrap_angle(double angle_rad);
+
 // Projects a nearly orthonormal matrix (accumulated round-off) back onto SO(3).
 Eigen::Matrix3d normalize(const Eigen::Matrix3d& R);
 

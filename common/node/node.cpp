@@ -41,9 +41,7 @@ bool run_nodes(transport::Transport& transport, const std::vector<Node*>& nodes,
   spdlog::debug("{}: finishing", end_of_input ? "end of input" : "shutdown");
   bool ok = true;
   if (const transport::LogDamage* damage = transport.log_damage(); damage && damage->any()) {
-    spdlog::error("the input log was damaged: {} corrupt region(s), {} bytes skipped{}",
-                  damage->corrupt_regions, damage->bytes_skipped,
-                  damage->truncated_end ? ", its last event truncated" : "");
+    spdlog::error("the input log was damaged: {}", damage->summary());
     ok = false;
   }
   for (Node* n : nodes) {

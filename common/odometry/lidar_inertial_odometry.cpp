@@ -1,12 +1,12 @@
 #include "odometry/lidar_inertial_odometry.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <type_traits>
 
 #include "math/so3.hpp"
+#include "math/stopwatch.hpp"
 #include "odometry/scan_deskewer.hpp"
 #include "pointcloud/voxel_grid.hpp"
 #include "pointcloud/voxel_index_table.hpp"
@@ -14,23 +14,18 @@
 namespace liloc {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-}
-
 int64_t to_us(double s) { return static_cast<int64_t>(std::llround(s * 1e6)); }
 
 // Runs one step of the sweep's pipeline and sets `ms` to its wall time.
 template <class Step>
 decltype(auto) timed(double& ms, Step&& step) {
-  const Clock::time_point start = Clock::now();
+  const Stopwatch watch;
   if constexpr (std::is_void_v<decltype(step())>) {
     step();
-    ms = ms_since(start);
+    ms = watch.ms();
   } else {
     decltype(auto) out = step();
-    ms = ms_since(start);
+    ms = watch.ms();
     return out;
   }
 }
@@ -355,7 +350,7 @@ void LidarInertialOdometry::update(const RegistrationResult& result) {
 
 OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int64_t start_utime,
                                                      int64_t end_utime) {
-  const Clock::time_point start = Clock::now();
+  const Stopwatch watch;
   OdometryEstimate est;
   est.utime_us = end_utime;
   Sweep sweep =
@@ -369,7 +364,7 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
     ++counters_.scans_too_small;
   }
   finish_estimate(est);
-  est.timings.total_ms = ms_since(start);
+  est.timings.total_ms = watch.ms();
   return est;
 }
 

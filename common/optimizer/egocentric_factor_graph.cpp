@@ -5,12 +5,12 @@
 #include <ceres/solver.h>
 
 #include <algorithm>
-#include <chrono>
 #include <stdexcept>
 
 #include "factors/imu_factor.hpp"
 #include "factors/pose_prior_factor.hpp"
 #include "factors/relative_pose_factor.hpp"
+#include "math/stopwatch.hpp"
 
 namespace liloc {
 namespace {
@@ -19,10 +19,6 @@ Matrix6d sqrt_information(double sigma_m, double sigma_rad) {
   Vector6d d;
   d << Eigen::Vector3d::Constant(1.0 / sigma_m), Eigen::Vector3d::Constant(1.0 / sigma_rad);
   return d.asDiagonal();
-}
-
-double ms_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
 }
 
 }  // namespace
@@ -188,9 +184,9 @@ GraphEstimate EgocentricFactorGraph::add(const GraphKeyframe& keyframe) {
   if (keyframe.scan_match && mode_ == LocalizationMode::kRelocalization) {
     estimate.scan_match_factors = add_scan_match(current, *keyframe.scan_match);
   }
-  const auto solve_start = std::chrono::steady_clock::now();
+  const Stopwatch solve_watch;
   estimate.final_cost = solve();
-  estimate.solve_ms = ms_since(solve_start);
+  estimate.solve_ms = solve_watch.ms();
   estimate.keyframe_id = current.id;
   estimate.utime_us = current.utime_us;
   estimate.T_map_body = pose_of(current.pose.data());
@@ -198,9 +194,9 @@ GraphEstimate EgocentricFactorGraph::add(const GraphKeyframe& keyframe) {
       Eigen::Vector3d(current.velocity[0], current.velocity[1], current.velocity[2]);
   estimate.bias.accel_mps2 = Eigen::Vector3d(current.bias[0], current.bias[1], current.bias[2]);
   estimate.bias.gyro_rps = Eigen::Vector3d(current.bias[3], current.bias[4], current.bias[5]);
-  const auto marginalization_start = std::chrono::steady_clock::now();
+  const Stopwatch marginalization_watch;
   marginalize_old();
-  estimate.marginalization_ms = ms_since(marginalization_start);
+  estimate.marginalization_ms = marginalization_watch.ms();
   estimate.window = static_cast<int>(nodes_.size());
   estimate.prior_node_count = static_cast<int>(priors_.size());
   return estimate;

@@ -1,20 +1,14 @@
 #include "optimizer/localizer.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <stdexcept>
 
+#include "math/stopwatch.hpp"
 #include "pointcloud/voxel_grid.hpp"
 
 namespace liloc {
-namespace {
-
-double ms_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
-}
-
-}  // namespace
+namespace {}  // namespace
 
 void LocalizerConfig::validate() const {
   graph.validate();
@@ -142,7 +136,7 @@ LocalizerOutput Localizer::add(const LocalizerKeyframe& keyframe) {
   if (!started_) {
     throw std::logic_error("Localizer::add before start");
   }
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   LocalizerOutput out;
   const Eigen::Isometry3d T_predicted = T_map_odom() * keyframe.T_odom_body;
   out.overlap = overlap(T_predicted.translation());
@@ -155,9 +149,9 @@ LocalizerOutput Localizer::add(const LocalizerKeyframe& keyframe) {
   kf.T_odom_body = keyframe.T_odom_body;
   kf.imu = keyframe.imu;
   if (out.mode == LocalizationMode::kRelocalization) {
-    const auto match_start = std::chrono::steady_clock::now();
+    const Stopwatch match_watch;
     kf.scan_match = scan_match(keyframe, T_predicted, out);
-    out.scan_match_ms = ms_since(match_start);
+    out.scan_match_ms = match_watch.ms();
     out.scan_matched = kf.scan_match.has_value();
     if (kf.scan_match) {
       out.T_map_body_registered = kf.scan_match->T_map_body;
@@ -172,7 +166,7 @@ LocalizerOutput Localizer::add(const LocalizerKeyframe& keyframe) {
     out.graph = graph_.add(kf);
     out.T_map_body = out.graph.T_map_body;
   }
-  out.total_ms = ms_since(start);
+  out.total_ms = watch.ms();
   return out;
 }
 

@@ -1,7 +1,6 @@
 #include "storage/map_store.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <ctime>
 #include <filesystem>
@@ -11,6 +10,7 @@
 #include <unordered_set>
 
 #include "map/map_validation.hpp"
+#include "math/stopwatch.hpp"
 #include "storage/file_io.hpp"
 #include "storage/map_error.hpp"
 #include "storage/map_layout.hpp"
@@ -36,11 +36,6 @@ struct MapStore::VersionIndex {
 namespace {
 
 constexpr size_t kMaxErrorsListed = 20;
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-}
 
 std::string join(const std::string& directory, const std::string& name) {
   return directory + "/" + name;
@@ -370,7 +365,7 @@ struct MapStore::SavePlan {
 
 SaveReport MapStore::save(MapData& data, const std::map<int64_t, PointCloud>& new_clouds,
                           const std::map<int64_t, std::vector<uint8_t>>& new_descriptors) {
-  const Clock::time_point start = Clock::now();
+  const Stopwatch watch;
   SaveReport report;
   check_saveable(data, new_clouds, new_descriptors);
   create_directory_synced(directory_);
@@ -379,17 +374,17 @@ SaveReport MapStore::save(MapData& data, const std::map<int64_t, PointCloud>& ne
   const FileLock lock(join(directory_, kLockFile));
   const std::shared_ptr<const VersionIndex> current = current_version_for_save(data);
   SavePlan plan = plan_keyframe_files(data, current.get(), new_clouds, new_descriptors);
-  report.check_ms = ms_since(start);
+  report.check_ms = watch.ms();
 
-  Clock::time_point step = Clock::now();
+  Stopwatch step;
   report.keyframe_files_written = write_keyframe_files(plan, current.get());
-  report.keyframe_files_ms = ms_since(step);
-  step = Clock::now();
+  report.keyframe_files_ms = step.ms();
+  step = Stopwatch();
   std::shared_ptr<VersionIndex> written = write_version(data, std::move(plan.keyframe_files));
-  report.version_ms = ms_since(step);
-  step = Clock::now();
+  report.version_ms = step.ms();
+  step = Stopwatch();
   commit(written->name);
-  report.commit_ms = ms_since(step);
+  report.commit_ms = step.ms();
 
   data.version = written->manifest.version;
   {
@@ -398,7 +393,7 @@ SaveReport MapStore::save(MapData& data, const std::map<int64_t, PointCloud>& ne
   }
   notify(SaveStep::kCommitted);
   report.version = data.version;
-  report.total_ms = ms_since(start);
+  report.total_ms = watch.ms();
   return report;
 }
 

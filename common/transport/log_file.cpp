@@ -259,4 +259,13 @@ ReplayResult replay_log(const std::string& path, Transport& transport, const Rep
   return result;
 }
 
+std::string LogDamage::summary() const {
+  std::string out = std::to_string(corrupt_regions) + " corrupt regions, " +
+                    std::to_string(bytes_skipped) + " bytes skipped";
+  if (truncated_end) {
+    out += ", last event cut short at byte offset " + std::to_string(truncated_offset);
+  }
+  return out;
+}
+
 }  // namespace liloc::transport

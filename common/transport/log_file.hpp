@@ -43,6 +43,9 @@ struct LogDamage {
   std::vector<SkippedRegion> regions;  // the first kListedRegions corrupt regions
 
   bool any() const { return corrupt_regions > 0 || truncated_end; }
+  // One line for messages: "2 corrupt regions, 310 bytes skipped, last event cut short at
+  // byte offset 9000".
+  std::string summary() const;
 };
 
 class LogWriter {

@@ -100,11 +100,8 @@ LoggedRun read_log(const std::string& path, const std::string& est_channel,
   }
   if (reader.damage().any()) {
     run.damaged = true;
-    spdlog::error(
-        "{}: damaged log: {} corrupt region(s), {} bytes skipped{}; the scores cover "
-        "what could be read",
-        path, reader.damage().corrupt_regions, reader.damage().bytes_skipped,
-        reader.damage().truncated_end ? ", the last event truncated" : "");
+    spdlog::error("{}: damaged log: {}; the scores cover what could be read", path,
+                  reader.damage().summary());
   }
   if (undecodable + rejected + repeated + bad_timings > 0) {
     spdlog::warn(

@@ -123,7 +123,7 @@ std::string format_summary(const LogSummary& summary) {
   if (!damage.any()) {
     return out;
   }
-  out += "damaged log: " + describe_damage(damage) + "\n";
+  out += "damaged log: " + damage.summary() + "\n";
   for (const transport::SkippedRegion& region : damage.regions) {
     out += "  corrupt region at byte offset " + std::to_string(region.offset) + ": " +
            std::to_string(region.bytes) + " bytes skipped\n";
@@ -131,15 +131,6 @@ std::string format_summary(const LogSummary& summary) {
   const int64_t unlisted = damage.corrupt_regions - static_cast<int64_t>(damage.regions.size());
   if (unlisted > 0) {
     out += "  ... and " + std::to_string(unlisted) + " more corrupt regions\n";
-  }
-  return out;
-}
-
-std::string describe_damage(const transport::LogDamage& damage) {
-  std::string out = std::to_string(damage.corrupt_regions) + " corrupt regions, " +
-                    std::to_string(damage.bytes_skipped) + " bytes skipped";
-  if (damage.truncated_end) {
-    out += ", last event cut short at byte offset " + std::to_string(damage.truncated_offset);
   }
   return out;
 }

@@ -34,7 +34,4 @@ LogSummary summarize_log(const std::string& path);
 // A table for humans, one line per channel, then the damage with byte offsets.
 std::string format_summary(const LogSummary& summary);
 
-// One line: "2 corrupt regions, 310 bytes skipped, last event cut short at byte 9000".
-std::string describe_damage(const transport::LogDamage& damage);
-
 }  // namespace liloc::tools

@@ -40,7 +40,7 @@ int exit_code(const std::string& source, const transport::LogDamage* damage,
               int64_t messages_lost) {
   bool lost = false;
   if (damage != nullptr && damage->any()) {
-    spdlog::error("{}: damaged log: {}", source, tools::describe_damage(*damage));
+    spdlog::error("{}: damaged log: {}", source, damage->summary());
     lost = true;
   }
   if (messages_lost > 0) {

@@ -62,10 +62,8 @@ DriveResult run_odometry(const SystemConfig& config, const std::string& log_path
       });
   if (run.damage.any()) {
     // A map must not be built from part of a drive without saying so.
-    throw std::runtime_error(
-        log_path + ": damaged log (" + std::to_string(run.damage.corrupt_regions) +
-        " corrupt region(s), " + std::to_string(run.damage.bytes_skipped) + " bytes skipped" +
-        (run.damage.truncated_end ? ", the last event truncated" : "") + "); no map built");
+    throw std::runtime_error(log_path + ": damaged log (" + run.damage.summary() +
+                             "); no map built");
   }
   drive.scans = run.sweeps;
   drive.counters = run.counters;

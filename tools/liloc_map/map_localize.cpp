@@ -61,7 +61,7 @@ void print_pose(const char* label, const Eigen::Isometry3d& T) {
   const Eigen::Matrix3d& R = T.linear();
   const double roll = std::atan2(R(2, 1), R(2, 2));
   const double pitch = -std::asin(std::clamp(R(2, 0), -1.0, 1.0));
-  const double yaw = std::atan2(R(1, 0), R(0, 0));
+  const double yaw = so3::yaw(R);
   std::printf("%-16s x %.3f  y %.3f  z %.3f m   roll %.2f  pitch %.2f  yaw %.2f deg\n", label,
               T.translation().x(), T.translation().y(), T.translation().z(), roll / kDeg,
               pitch / kDeg, yaw / kDeg);
