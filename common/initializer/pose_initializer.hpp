@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "descriptor/polar_descriptor.hpp"
+#include "initializer/correlative_search.hpp"
 #include "initializer/map_index.hpp"
 #include "math/se3.hpp"
 #include "pointcloud/point_cloud.hpp"
@@ -59,6 +60,14 @@ struct InitializerConfig {
   // Coarse-to-fine: registrations that end this far apart are different answers, and the
   // best must clearly beat the other (max_alternative_ratio), as in the global search.
   double coarse_distinct_m = 3.0;
+  // Coarse-to-fine, when no start from the map's keyframes verifies (the robot metres from
+  // all of them, their descriptors' yaw 10-35 degrees off: bench_init, sessions B and D):
+  // starts from a correlative search over the coarse pose's window, +- this many sigmas
+  // (at most the caps), then verified as the others.
+  CorrelativeSearchConfig correlative;
+  double correlative_window_sigmas = 1.2;
+  double correlative_max_half_xy_m = 10.0;
+  double correlative_max_half_yaw_deg = 60.0;
   // Registration target: the map's points within target_radius_m of the candidate.
   double target_radius_m = 35.0;
   // Registration runs coarse to fine: target voxels and association radii, one stage each.
@@ -81,8 +90,14 @@ struct InitializerConfig {
   double min_inlier_ratio = 0.75;
   // Coarse-to-fine: wrong places are mostly ruled out by the coarse pose, so the bound is
   // lower. Right poses scored 0.65-0.93 (hdl32, sessions C and D, 105 candidates); a Mid-360
-  // start converged 12 m along a street with 0.56, so not 0.5.
+  // start converged 12 m along a street with 0.56, so not 0.5. A degenerate registration
+  // needs min_inlier_ratio all the same.
   double min_inlier_ratio_coarse = 0.6;
+  // Global: one keyframe's answer stands alone only with this many inliers; between
+  // min_inlier_ratio and this its pose votes with the next keyframes' (HypothesisVoter).
+  // bench_init --calibrate, 4 LiDARs x sessions B-D, 1 290 verified candidates: the best
+  // wrong pose scored 0.80 (0.9 m along a street), 12 of 507 right ones 0.80-0.85.
+  double min_inlier_ratio_alone = 0.85;
   double max_fitness_m = 0.20;  // RMS point-to-plane distance at the last stage
   // The answer is registered again from these shifts along its weakest horizontal
   // direction (both signs; all but the first stage) and the shift kept if its inlier ratio
@@ -92,6 +107,10 @@ struct InitializerConfig {
   // polish, 20 of 20 such starts succeed instead of 17).
   std::vector<double> polish_offsets_m{1.0};
   double polish_min_gain = 0.02;
+  // Only an answer with fewer inliers than this is polished: in --calibrate's 1 300
+  // candidates (4 LiDARs, sessions B-D) no pose off the truth scored above 0.9, and most
+  // right ones do (it saves a third of the registration time).
+  double polish_below_inlier_ratio = 0.9;
   // The best must beat the best distinct alternative: its inlier ratio at most this
   // fraction of the best's.
   double max_alternative_ratio = 0.9;
@@ -109,15 +128,21 @@ struct InitializerConfig {
     v("max_descriptor_distance", max_descriptor_distance);
     v("coarse_start_spacing_m", coarse_start_spacing_m);
     v("coarse_distinct_m", coarse_distinct_m);
+    v("correlative", correlative);
+    v("correlative_window_sigmas", correlative_window_sigmas);
+    v("correlative_max_half_xy_m", correlative_max_half_xy_m);
+    v("correlative_max_half_yaw_deg", correlative_max_half_yaw_deg);
     v("target_radius_m", target_radius_m);
     v("stages", stages);
     v("max_query_points", max_query_points);
     v("registration", registration);
     v("min_inlier_ratio", min_inlier_ratio);
     v("min_inlier_ratio_coarse", min_inlier_ratio_coarse);
+    v("min_inlier_ratio_alone", min_inlier_ratio_alone);
     v("max_fitness_m", max_fitness_m);
     v("polish_offsets_m", polish_offsets_m);
     v("polish_min_gain", polish_min_gain);
+    v("polish_below_inlier_ratio", polish_below_inlier_ratio);
     v("max_alternative_ratio", max_alternative_ratio);
     v("independent_correspondences", independent_correspondences);
     v("inlier_m", inlier_m);
@@ -142,7 +167,7 @@ struct CoarsePose {
 };
 
 struct InitCandidate {
-  int64_t keyframe_id = -1;  // the map keyframe the descriptor matched
+  int64_t keyframe_id = -1;  // the map keyframe the descriptor matched; -1: a correlative start
   int64_t submap_id = -1;
   double descriptor_distance = 1.0;
   double yaw_rad = 0.0;  // of the match (Eq. 4's column shift)
@@ -256,6 +281,14 @@ class PoseInitializer {
   std::vector<InitCandidate> rank(const Query& query,
                                   const std::vector<const MapIndex::Keyframe*>& keyframes,
                                   const std::optional<CoarsePose>& coarse) const;
+  // Coarse-to-fine's second round: starts from the correlative search around the coarse
+  // pose (z from the nearest of `keyframes`), verified.
+  InitResult correlative_round(const MapIndex& index, const Query& query, const CoarsePose& coarse,
+                               const std::vector<const MapIndex::Keyframe*>& keyframes,
+                               const SubmapTargets& targets) const;
+  // The submaps of one registration target around all of `positions`.
+  std::vector<int64_t> union_target(const MapIndex& index,
+                                    const std::vector<Eigen::Vector3d>& positions) const;
   // Registers the query from each candidate's guess; kNeedsSubmaps if a target is missing.
   InitResult verify(const MapIndex& index, const Query& query,
                     std::vector<InitCandidate> candidates, const SubmapTargets& targets,
