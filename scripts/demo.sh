@@ -6,8 +6,12 @@
 #       LILOC_DEMO_SCALE, default 0.3);
 #  5.   the central session: liloc_map build on session A, ATE against ground truth;
 #  6.   liloc_odometry on session B's log, scored by liloc_eval (the accuracy table);
-#  7.   liloc_map_server serving the map to 4 robots over loopback (bench_mapserver).
-# The initializer and the joint optimizer (RLM/ILM) are not built yet; this grows with them.
+#  7.   liloc_map_server serving the map to 4 robots over loopback (bench_mapserver);
+#  8.   session B localized against the map in one process (bench_efg: initializer, then
+#       the egocentric factor graph), beside the odometry alone;
+#  9.   the system as processes over loopback UDP: map server, odometry replaying session B,
+#       initializer (no coarse pose) and optimizer; its robot0.POSE recorded and scored.
+# Not yet in it: the map growing from ILM stretches, several robots localizing at once.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup.sh
@@ -70,9 +74,37 @@ echo "== 7. the map server answering 4 robots at 10 Hz over loopback"
 echo
 echo "== 8. session B localized against the map of A, in one process: the initializer (coarse"
 echo "   pose 3 m off), then the egocentric factor graph; beside it the odometry alone"
-echo "   (the optimizer's process is not built yet: docs/optimizer.md)"
 "$BIN"/bin/bench_efg --data "$SIM/campus" --maps "$OUT/map" --lidars hdl32 --sessions B \
   --variants full,ilm_only --json "" --log-level warn
 echo
-echo "Results in $OUT: map.png, odometry_B.png/.md/.json, map_report.json."
+echo "== 9. the system as processes over loopback UDP: liloc_map_server, liloc_initializer and"
+echo "   liloc_optimizer listen; liloc_odometry replays session B's log at its own pace; the"
+echo "   optimizer's robot0.POSE (map frame) is recorded by lcm-logger and scored"
+BUS="udpm://239.255.76.68:7668?ttl=0&recv_buf_size=4194304"  # a bus of its own
+rm -f "$OUT/system_B.lcmlog"
+PIDS=()
+trap 'kill "${PIDS[@]}" 2>/dev/null || true' EXIT
+"$BIN"/bin/liloc_map_server --map "$OUT/map" --lcm-url "$BUS" --log-level warn &
+PIDS+=($!)
+"$BIN"/bin/liloc_initializer --lcm-url "$BUS" --log-level warn &
+PIDS+=($!)
+"$BIN"/bin/liloc_optimizer --lcm-url "$BUS" --log-level warn &
+PIDS+=($!)
+lcm-logger -q --lcm-url="$BUS" -c 'robot0\.(POSE|INIT|STATUS\..*)' "$OUT/system_B.lcmlog" &
+PIDS+=($!)
+sleep 1
+"$BIN"/bin/liloc_odometry --lcm-url "file://$PWD/$SESSION_B/session.lcmlog?speed=1" \
+  --publish-url "$BUS" --log-level warn
+sleep 2
+kill -INT "${PIDS[@]}"
+wait "${PIDS[@]}" 2>/dev/null || true
+trap - EXIT
+"$BIN"/bin/liloc_eval "$SESSION_B/ground_truth.tum" "$OUT/system_B.lcmlog" \
+  --est-channel robot0.POSE --status-channel robot0.STATUS.optimizer \
+  --name "system B (robot0.POSE)" --out "$OUT/system_B" --log-level warn
+echo "   the map after session B (its ILM stretch merged as a new version):"
+"$BIN"/bin/liloc_map inspect "$OUT/map" --log-level warn
+
+echo
+echo "Results in $OUT: map.png, odometry_B.png/.md/.json, system_B.png/.md/.json, map_report.json."
 echo "Browse live traffic with ./scripts/spy.sh (lcm-spy with liloc's types)."

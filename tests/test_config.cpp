@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <string>
 
@@ -188,6 +189,24 @@ TEST_F(ConfigFile, ASectionDumpLoadsBackAsThatSection) {
   const SampleConfig back = load_config<SampleConfig>(write(dump_config(config, "sim")), "sim");
   EXPECT_DOUBLE_EQ(back.rate_hz, 42.5);
   EXPECT_EQ(back.inner.count, 9);
+}
+
+// A program's config: the file given; else ./config/liloc.yaml if the working directory
+// has one; else the built-in defaults, so that programs run from any directory. A file
+// given but missing is an error.
+TEST_F(ConfigFile, ProgramsRunFromAnyDirectory) {
+  const std::filesystem::path before = std::filesystem::current_path();
+  const std::filesystem::path dir = ::testing::TempDir() + "liloc_config_anywhere";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir / "config");
+  std::filesystem::current_path(dir);
+  EXPECT_EQ(load_program_config<SampleConfig>("").rate_hz, 10.0);  // the built-in default
+  std::ofstream(dir / "config" / "liloc.yaml") << "rate_hz: 20.0\n";
+  EXPECT_EQ(load_program_config<SampleConfig>("").rate_hz, 20.0);
+  EXPECT_EQ(load_program_config<SampleConfig>(write("rate_hz: 30.0\n")).rate_hz, 30.0);
+  EXPECT_THROW(load_program_config<SampleConfig>("missing.yaml"), ConfigError);
+  std::filesystem::current_path(before);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -257,8 +257,9 @@ int main(int argc, char** argv) {
           if (shutdown_requested()) {
             throw std::runtime_error("interrupted");
           }
-          const Row r = run_case(map, T_map_world, session, name, lidar, variant, config.optimizer,
-                                 config.initializer.search, config.descriptor);
+          const Row r =
+              run_case(map, T_map_world, session, name, lidar, variant, config.optimizer.localizer,
+                       config.initializer.search, config.descriptor);
           spdlog::info(
               "{} {} {}: ATE {:.3f} m, RLM {:.0f} % (truth {:.0f} %), JFGO {:.1f} ms, "
               "latency {:.1f} / {:.1f} ms{} ({})",

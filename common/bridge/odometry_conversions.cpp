@@ -12,10 +12,10 @@ void put(const Eigen::Vector3d& v, double (&out)[3]) {
   }
 }
 
-Eigen::Vector3d finite_vector(const double (&v)[3], const char* field) {
+Eigen::Vector3d finite_vector(const double (&v)[3], const char* message, const char* field) {
   const Eigen::Vector3d out(v[0], v[1], v[2]);
   if (!out.allFinite()) {
-    throw std::invalid_argument(std::string("correction: ") + field + " is not finite");
+    throw std::invalid_argument(std::string(message) + ": " + field + " is not finite");
   }
   return out;
 }
@@ -32,6 +32,21 @@ liloc::odometry_t to_msg(const OdometryEstimate& e, const OdometryFrames& frames
   put(e.gyro_bias, msg.gyro_bias);
   put(e.accel_bias, msg.accel_bias);
   return msg;
+}
+
+OdometryEstimate from_msg(const liloc::odometry_t& msg) {
+  OdometryEstimate e;
+  e.utime_us = msg.header.utime;
+  e.T_odom_body = from_msg(msg.pose);
+  e.velocity_odom = finite_vector(msg.linear_velocity, "odometry", "linear_velocity");
+  e.angular_velocity_body = finite_vector(msg.angular_velocity, "odometry", "angular_velocity");
+  e.gyro_bias = finite_vector(msg.gyro_bias, "odometry", "gyro_bias");
+  e.accel_bias = finite_vector(msg.accel_bias, "odometry", "accel_bias");
+  e.covariance = covariance_from_msg(msg.covariance);
+  if (!e.covariance.allFinite()) {
+    throw std::invalid_argument("odometry: covariance is not finite");
+  }
+  return e;
 }
 
 liloc::keyframe_t to_msg(const Keyframe& kf, const OdometryFrames& frames) {
@@ -72,11 +87,11 @@ OdometryCorrection from_msg(const liloc::correction_t& msg) {
     c.T_odom_body = from_msg(msg.pose);
   }
   if (msg.has_velocity) {
-    c.velocity_odom = finite_vector(msg.linear_velocity, "linear_velocity");
+    c.velocity_odom = finite_vector(msg.linear_velocity, "correction", "linear_velocity");
   }
   if (msg.has_bias) {
-    c.gyro_bias = finite_vector(msg.gyro_bias, "gyro_bias");
-    c.accel_bias = finite_vector(msg.accel_bias, "accel_bias");
+    c.gyro_bias = finite_vector(msg.gyro_bias, "correction", "gyro_bias");
+    c.accel_bias = finite_vector(msg.accel_bias, "correction", "accel_bias");
   }
   return c;
 }

@@ -17,6 +17,8 @@ struct OdometryFrames {
 };
 
 liloc::odometry_t to_msg(const OdometryEstimate& estimate, const OdometryFrames& frames);
+// Throws std::invalid_argument naming the field if a part is not finite.
+OdometryEstimate from_msg(const liloc::odometry_t& msg);
 liloc::keyframe_t to_msg(const Keyframe& keyframe, const OdometryFrames& frames);
 // Throws std::invalid_argument (from the pose conversion) for a non-finite pose.
 Keyframe from_msg(const liloc::keyframe_t& msg, size_t* non_finite_points = nullptr);

@@ -14,12 +14,14 @@
 // repeated key, a value of the wrong type, a number that is not finite, or a value that
 // validate() refuses is a ConfigError naming the file, the line and the full key.
 
+#include <spdlog/spdlog.h>
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/Core>
 #include <array>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -213,6 +215,26 @@ Config load_config(const std::string& path, const std::string& section = "") {
     }
   }
   return config;
+}
+
+// The system config's usual place, relative to the working directory.
+inline constexpr const char* kDefaultConfigPath = "config/liloc.yaml";
+inline constexpr const char* kConfigOptionHelp =
+    "system config (YAML); without it ./config/liloc.yaml if there is one, else the built-in "
+    "defaults (the paper's values; --print-config shows them)";
+
+// The config a program runs with: the file at `path` if one was given (a missing file is an
+// error); else kDefaultConfigPath if the working directory has it; else the built-in
+// defaults, so that every program runs from any directory. Logs which.
+template <class Config>
+Config load_program_config(const std::string& path) {
+  if (!path.empty() || std::filesystem::exists(kDefaultConfigPath)) {
+    const std::string file = path.empty() ? kDefaultConfigPath : path;
+    spdlog::info("config: {}", file);
+    return load_config<Config>(file);
+  }
+  spdlog::info("config: the built-in defaults (no --config, no ./{})", kDefaultConfigPath);
+  return Config{};
 }
 
 // Visitor that writes a config struct as YAML (the effective values, for logs and

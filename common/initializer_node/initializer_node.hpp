@@ -5,22 +5,19 @@
 //        re-initialize: a huge covariance asks for a global search), MAP.INFO, and on the
 //        robot's reply route <robot>.DESCRIPTORS and <robot>.SUBMAP
 //   out: <robot>.INIT, <robot>.STATUS.initializer, MAP.DESCRIPTOR_REQUEST, MAP.REQUEST
-// It asks the map server for the map's keyframe index once (and again when the map grows),
-// and for the submaps a search needs; requests not answered are sent again, so it keeps
-// working when the server starts after it or restarts, and its status says what it waits
-// for.
+// The map's keyframe index and the submaps a search needs come through a MapClient, which
+// asks again for what is not answered, so it keeps working when the server starts after it
+// or restarts; its status says what it waits for.
 
 #include <deque>
-#include <map>
 #include <memory>
 #include <optional>
-#include <set>
 #include <string>
 #include <vector>
 
 #include "descriptor/polar_descriptor.hpp"
 #include "initializer/pose_initializer.hpp"
-#include "map_service/map_service.hpp"
+#include "map_client/map_client.hpp"
 #include "node/node.hpp"
 #include "transport/channels.hpp"
 #include "transport/transport.hpp"
@@ -80,55 +77,32 @@ class InitializerNode final : public node::Node {
     int64_t attempts = 0;  // searches run to an answer
     int64_t localized = 0;
     int64_t not_localized = 0;
-    int64_t index_requests = 0;
-    int64_t submap_requests = 0;
     int64_t rejected_messages = 0;  // that did not convert (non-finite poses, bad offsets)
   };
   const Counters& counters() const { return counters_; }
+  const MapClient& map() const { return map_; }
 
  private:
   // Each message converted to its core type at the door (bridge/); what does not convert is
   // counted in rejected_messages.
   void on_keyframe(InitQuery query);
   void on_coarse_pose(const CoarsePose& coarse);
-  void on_map_info(MapData info);
-  void on_descriptors(KeyframeIndexPart part);
-  // Builds the index once every chunk of the latest reply and MAP.INFO are here.
-  void build_index();
-  void on_submap(SubmapReplyPart part);
   // Runs a search on the newest keyframe if one is wanted and everything it needs is here.
   void try_initialize();
-  void request_index(int64_t now_us);
-  void request_submaps(const std::vector<int64_t>& ids, int64_t now_us);
   void publish(const InitAnswer& answer);
   void publish_status(int64_t now_us);
-  std::shared_ptr<const std::vector<Eigen::Vector3f>> submap_points(int64_t id) const;
 
   transport::Transport& bus_;
-  std::unique_ptr<transport::Transport> replies_;  // the reply route, if not the bus
   std::string robot_id_;
   InitializerNodeConfig config_;
   PoseInitializer initializer_;
   HypothesisVoter voter_;
-  SubmapTargets targets_;
+  MapClient map_;
   std::string init_channel_, status_channel_;
 
   bool wanted_ = true;  // an initialization is asked for
   std::optional<CoarsePose> coarse_;
   std::deque<InitQuery> keyframes_;  // the newest last
-
-  // The map's keyframe index, assembled from its chunks (MAP.INFO for the submaps).
-  std::optional<MapData> map_info_;  // MAP.INFO's version and submaps
-  std::unique_ptr<MapIndex> index_;
-  int64_t index_request_id_ = 0;
-  int64_t index_requested_us_ = 0;
-  std::map<int, KeyframeIndexPart> index_chunks_;  // of the latest request
-  // Submaps' points in the map frame, from the replies' chunks.
-  int64_t submap_request_id_ = 0;
-  std::map<int64_t, int64_t> submaps_requested_us_;  // by submap id, until they arrive
-  std::map<int64_t, std::vector<SubmapReplyPart>> submap_chunks_;
-  std::map<int64_t, std::shared_ptr<const std::vector<Eigen::Vector3f>>> submaps_;
-  std::deque<int64_t> submap_order_;  // oldest first
 
   Counters counters_;
   std::string state_;  // what it does or waits for, for the status

@@ -1,5 +1,6 @@
 #include "optimizer/egocentric_factor_graph.hpp"
 
+#include <ceres/covariance.h>
 #include <ceres/normal_prior.h>
 #include <ceres/problem.h>
 #include <ceres/solver.h>
@@ -185,8 +186,8 @@ GraphEstimate EgocentricFactorGraph::add(const GraphKeyframe& keyframe) {
     estimate.scan_match_factors = add_scan_match(current, *keyframe.scan_match);
   }
   const Stopwatch solve_watch;
-  estimate.final_cost = solve();
-  estimate.solve_ms = solve_watch.ms();
+  estimate.final_cost = solve(current, estimate);
+  estimate.solve_ms = solve_watch.ms() - estimate.covariance_ms;
   estimate.keyframe_id = current.id;
   estimate.utime_us = current.utime_us;
   estimate.T_map_body = pose_of(current.pose.data());
@@ -195,14 +196,14 @@ GraphEstimate EgocentricFactorGraph::add(const GraphKeyframe& keyframe) {
   estimate.bias.accel_mps2 = Eigen::Vector3d(current.bias[0], current.bias[1], current.bias[2]);
   estimate.bias.gyro_rps = Eigen::Vector3d(current.bias[3], current.bias[4], current.bias[5]);
   const Stopwatch marginalization_watch;
-  marginalize_old();
+  marginalize_old(estimate);
   estimate.marginalization_ms = marginalization_watch.ms();
   estimate.window = static_cast<int>(nodes_.size());
   estimate.prior_node_count = static_cast<int>(priors_.size());
   return estimate;
 }
 
-double EgocentricFactorGraph::solve() {
+double EgocentricFactorGraph::solve(Node& newest, GraphEstimate& estimate) {
   ceres::Problem::Options options;
   options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -229,10 +230,28 @@ double EgocentricFactorGraph::solve() {
   solver.num_threads = 1;
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &problem, &summary);
+  if (config_.compute_covariance) {
+    // The newest pose's marginal covariance in the window, in the manifold's tangent space
+    // (right perturbation, translation then rotation).
+    const Stopwatch watch;
+    ceres::Covariance::Options options_cov;
+    options_cov.num_threads = 1;
+    ceres::Covariance covariance(options_cov);
+    double* pose = newest.pose.data();
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c;
+    const std::vector<std::pair<const double*, const double*>> blocks{{pose, pose}};
+    estimate.covariance_ok = covariance.Compute(blocks, &problem) &&
+                             covariance.GetCovarianceBlockInTangentSpace(pose, pose, c.data()) &&
+                             c.allFinite();
+    if (estimate.covariance_ok) {
+      estimate.covariance = c;
+    }
+    estimate.covariance_ms = watch.ms();
+  }
   return summary.final_cost;
 }
 
-void EgocentricFactorGraph::marginalize_old() {
+void EgocentricFactorGraph::marginalize_old(GraphEstimate& estimate) {
   const size_t window = static_cast<size_t>(
       mode_ == LocalizationMode::kRelocalization ? config_.window_rlm : config_.window_ilm);
   if (config_.no_marginalization) {
@@ -277,6 +296,7 @@ void EgocentricFactorGraph::marginalize_old() {
       kept.push_back(prior->factor());
     }
     factors_ = std::move(kept);
+    estimate.finalized.push_back({oldest.id, oldest.utime_us, pose_of(oldest.pose.data())});
     nodes_.pop_front();
     for (const int64_t id : dropped_priors) {
       priors_.erase(id);

@@ -76,6 +76,8 @@ struct EgocentricGraphConfig {
   double odometry_sigma_rad = 0.002;
   double odometry_sigma_per_m = 0.01;
   int max_iterations = 10;
+  // The newest pose's covariance after each solve (for <robot>.POSE).
+  bool compute_covariance = true;
   // Ablations (bench): one scan-match factor on the current node instead of the
   // propagation (Block-Loc style); no fitness weighting (the public code); a growing graph.
   bool direct = false;
@@ -104,6 +106,7 @@ struct EgocentricGraphConfig {
     v("odometry_sigma_rad", odometry_sigma_rad);
     v("odometry_sigma_per_m", odometry_sigma_per_m);
     v("max_iterations", max_iterations);
+    v("compute_covariance", compute_covariance);
     v("direct", direct);
     v("unweighted", unweighted);
     v("no_marginalization", no_marginalization);
@@ -135,6 +138,13 @@ struct GraphKeyframe {
   std::optional<ScanMatch> scan_match;
 };
 
+// A robot keyframe's pose in the map frame.
+struct KeyframePose {
+  int64_t keyframe_id = 0;
+  int64_t utime_us = 0;
+  Eigen::Isometry3d T_map_body = Eigen::Isometry3d::Identity();
+};
+
 struct GraphEstimate {
   int64_t keyframe_id = 0;
   int64_t utime_us = 0;
@@ -145,9 +155,16 @@ struct GraphEstimate {
   int prior_node_count = 0;  // prior nodes in the graph
   int scan_match_factors = 0;
   bool imu_factor = false;  // the latest keyframe is tied by IMU
-  double solve_ms = 0.0;    // JFGO
+  // The pose's marginal covariance in the window (right perturbation, translation m then
+  // rotation rad); not ok (and identity) when the window leaves it unconstrained.
+  Matrix6d covariance = Matrix6d::Identity();
+  bool covariance_ok = false;
+  double solve_ms = 0.0;  // JFGO
+  double covariance_ms = 0.0;
   double marginalization_ms = 0.0;
   double final_cost = 0.0;
+  // Keyframes that left the window at this keyframe (marginalized): their final poses.
+  std::vector<KeyframePose> finalized;
 };
 
 class EgocentricFactorGraph {
@@ -190,8 +207,10 @@ class EgocentricFactorGraph {
                   std::vector<StateBlock> blocks);
   int add_scan_match(Node& node, const ScanMatch& match);
   bool add_imu(Node& from, Node& to, const std::vector<ImuSample>& imu);
-  double solve();
-  void marginalize_old();
+  // JFGO over the window; the newest node's covariance into `estimate` if asked for.
+  double solve(Node& newest, GraphEstimate& estimate);
+  // Marginalizes what leaves the window; the final poses of its keyframes into `estimate`.
+  void marginalize_old(GraphEstimate& estimate);
 
   EgocentricGraphConfig config_;
   LocalizationMode mode_ = LocalizationMode::kRelocalization;

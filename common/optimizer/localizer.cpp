@@ -8,8 +8,6 @@
 #include "pointcloud/voxel_grid.hpp"
 
 namespace liloc {
-namespace {}  // namespace
-
 void LocalizerConfig::validate() const {
   graph.validate();
   if (!(overlap_half_side_m > 0) || !(overlap_threshold > 0 && overlap_threshold <= 1) ||
@@ -28,7 +26,7 @@ void LocalizerConfig::validate() const {
 Localizer::Localizer(const LocalizerConfig& config, const MapIndex& index,
                      const SubmapTargets& targets)
     : config_(config),
-      index_(index),
+      index_(&index),
       targets_(targets),
       graph_(config.graph),
       target_(config.stages.voxel_m, config.target_radius_m, config.target_keep_m) {
@@ -53,8 +51,8 @@ Eigen::Isometry3d Localizer::T_map_odom() const {
 double Localizer::overlap(const Eigen::Vector3d& position) const {
   double best = 0.0;
   for (const KdTree::Hit& hit :
-       index_.submaps().nearest_submaps(position, static_cast<size_t>(config_.overlap_submaps))) {
-    if (const Submap* submap = index_.submaps().submap(hit.id)) {
+       index_->submaps().nearest_submaps(position, static_cast<size_t>(config_.overlap_submaps))) {
+    if (const Submap* submap = index_->submaps().submap(hit.id)) {
       best = std::max(best, overlap_ratio(position, config_.overlap_half_side_m, submap->bounds));
     }
   }
@@ -64,7 +62,7 @@ double Localizer::overlap(const Eigen::Vector3d& position) const {
 std::optional<ScanMatch> Localizer::scan_match(const LocalizerKeyframe& keyframe,
                                                const Eigen::Isometry3d& T_predicted,
                                                LocalizerOutput& out) {
-  out.missing_submaps = target_.update(index_, targets_, T_predicted.translation());
+  out.missing_submaps = target_.update(*index_, targets_, T_predicted.translation());
   if (!out.missing_submaps.empty()) {
     out.gate = "waiting for " + std::to_string(out.missing_submaps.size()) + " submap(s)";
     return std::nullopt;
@@ -108,9 +106,9 @@ std::optional<ScanMatch> Localizer::scan_match(const LocalizerKeyframe& keyframe
   // keyframe's points around it.
   const Eigen::Isometry3f Tf = T.cast<float>();
   const float cap = static_cast<float>(config_.fitness_cap_m);
-  for (const KdTree::Hit& hit : index_.submaps().nearest_keyframes(
+  for (const KdTree::Hit& hit : index_->submaps().nearest_keyframes(
            T.translation(), static_cast<size_t>(config_.graph.prior_nodes))) {
-    const MapKeyframe* kf = index_.submaps().keyframe(hit.id);
+    const MapKeyframe* kf = index_->submaps().keyframe(hit.id);
     if (kf == nullptr) {
       continue;
     }

@@ -89,7 +89,8 @@ struct LocalizerKeyframe {
   int64_t utime_us = 0;
   Eigen::Isometry3d T_odom_body = Eigen::Isometry3d::Identity();
   PointCloud cloud_body;
-  std::vector<ImuSample> imu;  // since the previous keyframe
+  std::vector<ImuSample> imu;       // since the previous keyframe
+  double odometry_fitness_m = 0.0;  // the odometry's registration (kept if the map grows)
 };
 
 struct LocalizerOutput {
@@ -109,8 +110,10 @@ struct LocalizerOutput {
 
 class Localizer {
  public:
-  // The index and targets must outlive the localizer.
+  // The index and targets must outlive the localizer (or the index until set_index).
   Localizer(const LocalizerConfig& config, const MapIndex& index, const SubmapTargets& targets);
+  // The map grew: its new index (keyframe and submap ids stay what they were).
+  void set_index(const MapIndex& index) { index_ = &index; }
 
   // The session's first keyframe at its initialized pose (and covariance).
   void start(const LocalizerKeyframe& keyframe, const Eigen::Isometry3d& T_map_body,
@@ -126,7 +129,7 @@ class Localizer {
   double overlap(const Eigen::Vector3d& position) const;
 
   LocalizerConfig config_;
-  const MapIndex& index_;
+  const MapIndex* index_;
   const SubmapTargets& targets_;
   EgocentricFactorGraph graph_;
   SlidingTarget target_;

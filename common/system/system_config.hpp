@@ -11,7 +11,7 @@
 #include "mapping/central_session_builder.hpp"
 #include "node/process_config.hpp"
 #include "odometry_node/odometry_node.hpp"
-#include "optimizer/localizer.hpp"
+#include "optimizer_node/optimizer_node.hpp"
 #include "transport/channels.hpp"
 #include "transport/transport.hpp"
 
@@ -27,7 +27,7 @@ struct SystemConfig {
   MapServerConfig map_server;
   CentralSessionConfig map_builder;  // liloc_map build
   InitializerProcessConfig initializer;
-  LocalizerConfig optimizer;  // the joint optimizer (the egocentric factor graph)
+  OptimizerProcessConfig optimizer;  // the joint optimizer (the egocentric factor graph)
 
   template <class V>
   void visit_fields(V& v) {
@@ -48,6 +48,7 @@ struct SystemConfig {
     return {channels, descriptor, submaps, map_server};
   }
   InitializerNodeConfig initializer_node() const { return {channels, descriptor, initializer}; }
+  OptimizerNodeConfig optimizer_node() const { return {channels, descriptor, optimizer}; }
 };
 
 }  // namespace liloc

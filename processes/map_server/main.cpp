@@ -13,17 +13,17 @@
 
 int main(int argc, char** argv) {
   using namespace liloc;
-  std::string config_path = "config/liloc.yaml";
+  std::string config_path;  // see kConfigOptionHelp
   std::string map_directory;
   std::string url;
   bool print_config = false;
   CommandLine cli("liloc_map_server", "Serves the central session's submaps to every robot.");
-  cli.add_option("config", &config_path, "system config (YAML)");
+  cli.add_option("config", &config_path, kConfigOptionHelp);
   cli.add_option("map", &map_directory, "map directory, overrides map_server.map_directory");
   cli.add_option("lcm-url", &url, "LCM URL, overrides the config");
   cli.add_flag("print-config", &print_config, "print the effective config and exit");
   return run_program(cli, "map_server", argc, argv, [&]() -> int {
-    auto config = load_config<node::ProcessConfig<MapServerNodeConfig>>(config_path);
+    auto config = load_program_config<node::ProcessConfig<MapServerNodeConfig>>(config_path);
     if (!map_directory.empty()) {
       config.node.map_server.map_directory = map_directory;
     }

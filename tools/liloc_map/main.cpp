@@ -277,16 +277,16 @@ int render(int argc, const char* const* argv) {
 int prune(int argc, const char* const* argv) {
   std::vector<std::string> args;
   int keep = 2;
-  std::string config_path = "config/liloc.yaml";
+  std::string config_path;  // see kConfigOptionHelp
   CommandLine cli("liloc_map prune",
                   "Keeps the current version and the newest ones before it; removes older "
                   "versions, leftovers of interrupted saves, keyframe files no kept version "
                   "lists and submap reply clouds the current version does not use.");
   cli.add_positional("DIR", &args, "the map directory", 1);
   cli.add_option("keep", &keep, "versions to keep, the current one included");
-  cli.add_option("config", &config_path, "system config (map_server.service.reply_voxel_m)");
+  cli.add_option("config", &config_path, kConfigOptionHelp);
   return run_program(cli, kProgram, argc, argv, [&]() -> int {
-    const SystemConfig config = load_config<SystemConfig>(config_path);
+    const SystemConfig config = load_program_config<SystemConfig>(config_path);
     storage::MapStore store(args[0]);
     const storage::PruneResult result = store.prune(keep);
     const int reply_clouds =

@@ -120,7 +120,7 @@ void print_map_summary(const std::string& directory, const MapData& map,
 
 int build_map(int argc, const char* const* argv) {
   std::vector<std::string> args;
-  std::string config_path = "config/liloc.yaml";
+  std::string config_path;  // see kConfigOptionHelp
   std::string robot_id = "robot0";
   std::string ground_truth_path;
   std::string json_path;
@@ -130,14 +130,14 @@ int build_map(int argc, const char* const* argv) {
                   "Builds a map directory (the central session) from a recorded drive: "
                   "odometry, keyframes, loop closures, pose-graph optimization, submaps.");
   cli.add_positional("LOG OUT_DIR", &args, "the drive's LCM log and the new map directory", 2);
-  cli.add_option("config", &config_path, "system config (YAML)");
+  cli.add_option("config", &config_path, kConfigOptionHelp);
   cli.add_option("robot", &robot_id, "robot id: the prefix of the log's channels");
   cli.add_option("ground-truth", &ground_truth_path, "TUM file: report the map's ATE");
   cli.add_option("json", &json_path, "write the report as JSON here");
   cli.add_option("map-id", &map_id, "the map's id");
   cli.add_flag("no-loops", &no_loops, "odometry only: do not close loops");
   return run_program(cli, "liloc_map", argc, argv, [&]() -> int {
-    const SystemConfig config = load_config<SystemConfig>(config_path);
+    const SystemConfig config = load_program_config<SystemConfig>(config_path);
     require_new_map_directory(args[1]);
     std::optional<Trajectory> ground_truth;
     if (!ground_truth_path.empty()) {

@@ -71,7 +71,7 @@ void print_pose(const char* label, const Eigen::Isometry3d& T) {
 
 int localize_scan(int argc, const char* const* argv) {
   std::vector<std::string> args;
-  std::string config_path = "config/liloc.yaml";
+  std::string config_path;  // see kConfigOptionHelp
   std::string coarse_text;
   std::string rpy_text = "0,0,0";
   double sigma_xy_m = 5.0;
@@ -91,9 +91,9 @@ int localize_scan(int argc, const char* const* argv) {
   cli.add_option("frame", &frame,
                  "lidar (a sensor's scan: the config's extrinsic applies) or body (a keyframe "
                  "cloud, e.g. a map's keyframes/N.pcd)");
-  cli.add_option("config", &config_path, "system config (YAML): extrinsic, search settings");
+  cli.add_option("config", &config_path, kConfigOptionHelp);
   return run_program(cli, "liloc_map", argc, argv, [&]() -> int {
-    const SystemConfig config = load_config<SystemConfig>(config_path);
+    const SystemConfig config = load_program_config<SystemConfig>(config_path);
     const auto start = std::chrono::steady_clock::now();
     const OpenedMap map(args[0], config.descriptor, config.map_server.service.reply_voxel_m);
     const MapIndex& index = map.index;

@@ -1,0 +1,200 @@
+#include <gtest/gtest.h>
+
+#include "bridge/lcm_conversions.hpp"
+#include "bridge/odometry_conversions.hpp"
+#include "initializer_node/initializer_node.hpp"
+#include "liloc/odometry_t.hpp"
+#include "liloc/pose_t.hpp"
+#include "liloc/status_t.hpp"
+#include "math/so3.hpp"
+#include "optimizer_node/optimizer_node.hpp"
+#include "street_map.hpp"
+
+namespace liloc {
+namespace {
+
+// The robot's true pose on the street: along x at y = 0.3, looking along x.
+Eigen::Isometry3d truth_at(double x) {
+  return se3::make(Eigen::Matrix3d::Identity(), Eigen::Vector3d(x, 0.3, 1.8));
+}
+
+// The street's map server, an initializer and an optimizer over memq://, with what the
+// optimizer publishes. The odometry is simulated: its frame has its own origin and yaw, and
+// it over-estimates the distance travelled by 2 % (0.6 m over 30 m), which scan matching
+// against the map must take out.
+struct Rig : test::StreetRig {
+  std::unique_ptr<InitializerNode> initializer;
+  std::unique_ptr<OptimizerNode> optimizer;
+  std::map<int64_t, Eigen::Isometry3d> poses;  // POSE by time
+  std::vector<liloc::status_t> status;
+  int coarse_poses = 0;
+  const Eigen::Isometry3d T_odom_map =
+      se3::make(so3::exp(Eigen::Vector3d(0, 0, 0.9)), Eigen::Vector3d(3, 4, 0)).inverse();
+
+  explicit Rig(const std::string& name) : StreetRig("liloc_optimizer_node_" + name) {
+    InitializerNodeConfig init_config;
+    init_config.initializer.request_period_s = 0.2;
+    initializer = std::make_unique<InitializerNode>(*bus, "robot0", init_config);
+    OptimizerNodeConfig config;
+    config.optimizer.request_period_s = 0.2;
+    config.optimizer.status_period_s = 0.1;
+    optimizer = std::make_unique<OptimizerNode>(*bus, "robot0", config);
+    nodes = {initializer.get(), optimizer.get()};
+    bus->subscribe<liloc::odometry_t>(
+        "robot0.POSE", [this](const liloc::odometry_t& m, const transport::ReceiveInfo&) {
+          EXPECT_EQ(m.header.frame_id, "map");
+          poses[m.header.utime] = bridge::from_msg(m.pose);
+        });
+    bus->subscribe<liloc::status_t>(
+        "robot0.STATUS.optimizer",
+        [this](const liloc::status_t& m, const transport::ReceiveInfo&) { status.push_back(m); });
+    bus->subscribe<liloc::pose_t>(
+        "robot0.COARSE_POSE",
+        [this](const liloc::pose_t&, const transport::ReceiveInfo&) { ++coarse_poses; });
+    start_server({"robot0"});
+  }
+  static int64_t utime_of(int64_t id) { return 1'700'000'100'000'000 + id * 100'000; }
+  // Keyframe `id` seen from `true_x`, where the odometry believes it at `odometry_x`.
+  void keyframe(int64_t id, double true_x, double odometry_x) {
+    send_keyframe(id, T_odom_map * truth_at(odometry_x),
+                  test::seen_from(world, {true_x, 0.3, 1.8}));
+  }
+  double error_m(int64_t id, double true_x) const {
+    const auto it = poses.find(utime_of(id));
+    return it == poses.end() ? 1e9
+                             : (it->second.translation() - truth_at(true_x).translation()).norm();
+  }
+  bool optimized(int64_t n) const { return optimizer->counters().optimized >= n; }
+};
+
+// Initializer and optimizer with the map server: the initializer localizes the first
+// keyframe globally, the optimizer starts there and keeps every keyframe within 5 cm of the
+// truth although the odometry drifts 2 %; between keyframes the odometry carried by the
+// latest correction gives POSE too; the status says RLM; a repeated keyframe is refused.
+TEST(OptimizerNode, LocalizesEveryKeyframeFromTheInitializersAnswer) {
+  Rig rig("track");
+  rig.keyframe(0, 20.0, 20.0);
+  ASSERT_TRUE(rig.run_until([&] { return rig.optimizer->counters().starts == 1; }))
+      << (rig.status.empty() ? "" : rig.status.back().message);
+  EXPECT_LT(rig.error_m(0, 20.0), 0.05);
+  for (int k = 1; k <= 30; ++k) {
+    rig.keyframe(k, 20.0 + k, 20.0 + 1.02 * k);
+    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(k); })) << k;
+    EXPECT_LT(rig.error_m(k, 20.0 + k), 0.05) << "keyframe " << k;
+  }
+  // Half-way to the next keyframe: the odometry's pose carried into the map.
+  liloc::odometry_t odom = bridge::to_msg(
+      [&] {
+        OdometryEstimate e;
+        e.utime_us = Rig::utime_of(30) + 50'000;
+        e.T_odom_body = rig.T_odom_map * truth_at(20.0 + 1.02 * 30.5);
+        return e;
+      }(),
+      bridge::OdometryFrames{});
+  rig.bus->publish("robot0.ODOM", odom);
+  rig.run_until([&] { return rig.poses.count(Rig::utime_of(30) + 50'000) > 0; });
+  ASSERT_EQ(rig.poses.count(Rig::utime_of(30) + 50'000), 1u);
+  EXPECT_LT((rig.poses.at(Rig::utime_of(30) + 50'000).translation() - truth_at(50.5).translation())
+                .norm(),
+            0.05);
+  const int64_t refused = rig.optimizer->counters().rejected_messages;
+  rig.keyframe(30, 50.0, 50.6);  // again
+  rig.run_until([] { return false; }, 0.3);
+  EXPECT_EQ(rig.optimizer->counters().rejected_messages, refused + 1);
+  EXPECT_EQ(rig.optimizer->counters().optimized, 30);
+  EXPECT_GE(rig.optimizer->counters().scan_matched, 25);
+  ASSERT_FALSE(rig.status.empty());
+  EXPECT_EQ(rig.status.back().mode, int8_t{liloc::status_t::MODE_RLM}) << rig.status.back().message;
+  EXPECT_EQ(rig.coarse_poses, 0);
+}
+
+// A robot carried 20 m along the street while its odometry saw nothing (a kidnapped
+// robot): the scan matches are refused by the gates, after lost_after_keyframes of them the
+// optimizer says LOST with the reason and asks for a re-initialization around its
+// estimate; the initializer answers and the optimizer tracks again at the true place.
+TEST(OptimizerNode, LostTrackingAsksForAReinitializationAndRecovers) {
+  Rig rig("kidnapped");
+  rig.keyframe(0, 20.0, 20.0);
+  ASSERT_TRUE(rig.run_until([&] { return rig.optimizer->counters().starts == 1; }));
+  int64_t id = 1;
+  for (; id <= 5; ++id) {
+    rig.keyframe(id, 20.0 + id, 20.0 + id);
+    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); }));
+  }
+  bool said_lost = false;
+  for (; id <= 40 && rig.optimizer->counters().starts < 2; ++id) {
+    rig.keyframe(id, 40.0 + id, 20.0 + id);
+    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); }));
+    rig.run_until([] { return false; }, 0.2);  // the initializer's turn
+    for (const liloc::status_t& s : rig.status) {
+      said_lost = said_lost || (s.mode == liloc::status_t::MODE_LOST &&
+                                s.message.find("without a scan match") != std::string::npos);
+    }
+  }
+  EXPECT_EQ(rig.optimizer->counters().lost, 1);
+  EXPECT_TRUE(said_lost);
+  EXPECT_GE(rig.coarse_poses, 1);
+  ASSERT_EQ(rig.optimizer->counters().starts, 2);
+  for (const int64_t end = id + 5; id < end; ++id) {
+    rig.keyframe(id, 40.0 + id, 20.0 + id);
+    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); }));
+    EXPECT_LT(rig.error_m(id, 40.0 + id), 0.05) << "keyframe " << id;
+  }
+  EXPECT_FALSE(rig.optimizer->lost());
+}
+
+// Map growth end to end: robot0 drives off the end of the mapped street (the map ends at
+// x = 100 m, the street goes on) and its ILM keyframes become submaps on the map server;
+// a later session, robot1, started out there is initialized and localizes in RLM against
+// them.
+TEST(OptimizerNode, AnIlmStretchGrowsTheMapAndALaterSessionLocalizesThere) {
+  Rig rig("growth");
+  const size_t mapped = rig.server->map().keyframes.size();
+  rig.keyframe(0, 75.0, 75.0);
+  ASSERT_TRUE(rig.run_until([&] { return rig.optimizer->counters().starts == 1; }));
+  for (int k = 1; k <= 60; ++k) {
+    rig.keyframe(k, 75.0 + k, 75.0 + k);
+    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(k); })) << k;
+  }
+  EXPECT_GE(rig.optimizer->counters().map_updates, 1);  // final ones went while it drove
+  EXPECT_TRUE(rig.optimizer->finish());                 // the rest at the session's end
+  const int64_t sent = rig.optimizer->counters().ilm_keyframes_sent;
+  EXPECT_GE(sent, 20);
+  ASSERT_TRUE(rig.run_until([&] { return rig.server->map().keyframes.size() == mapped + sent; }))
+      << rig.server->map().keyframes.size() << " keyframes in the map, " << mapped << " + " << sent
+      << " expected";
+  const MapData grown = rig.server->map();
+  EXPECT_GT(grown.keyframes.back().T_map_body.translation().x(), 130.0);
+
+  // robot1, later, out where only robot0's ILM stretch mapped the street.
+  InitializerNodeConfig init_config;
+  init_config.initializer.request_period_s = 0.2;
+  InitializerNode initializer(*rig.bus, "robot1", init_config);
+  OptimizerNodeConfig config;
+  config.optimizer.request_period_s = 0.2;
+  OptimizerNode optimizer(*rig.bus, "robot1", config);
+  rig.nodes = {&initializer, &optimizer};
+  std::map<int64_t, Eigen::Isometry3d> poses;
+  rig.bus->subscribe<liloc::odometry_t>(
+      "robot1.POSE", [&](const liloc::odometry_t& m, const transport::ReceiveInfo&) {
+        poses[m.header.utime] = bridge::from_msg(m.pose);
+      });
+  const Eigen::Isometry3d T_odom_map =
+      se3::make(so3::exp(Eigen::Vector3d(0, 0, -1.3)), Eigen::Vector3d(-7, 2, 0));
+  for (int k = 0; k <= 10; ++k) {
+    const double x = 120.0 + k;
+    rig.send_keyframe(k, T_odom_map * truth_at(x), test::seen_from(rig.world, {x, 0.3, 1.8}),
+                      "robot1");
+    ASSERT_TRUE(rig.run_until([&] {
+      return k == 0 ? optimizer.counters().starts == 1 : poses.count(Rig::utime_of(k)) == 1;
+    })) << k;
+  }
+  EXPECT_EQ(optimizer.counters().starts, 1);
+  EXPECT_GE(optimizer.counters().scan_matched, 8);  // RLM: matched against the grown map
+  ASSERT_EQ(poses.count(Rig::utime_of(10)), 1u);
+  EXPECT_LT((poses.at(Rig::utime_of(10)).translation() - truth_at(130.0).translation()).norm(),
+            0.05);
+}
+
+}  // namespace
+}  // namespace liloc
