@@ -10,8 +10,9 @@
 #  8.   session B localized against the map in one process (bench_efg: initializer, then
 #       the egocentric factor graph), beside the odometry alone;
 #  9.   the system as processes over loopback UDP: map server, odometry replaying session B,
-#       initializer (no coarse pose) and optimizer; its robot0.POSE recorded and scored.
-# Not yet in it: the map growing from ILM stretches, several robots localizing at once.
+#       initializer (no coarse pose) and optimizer; its robot0.POSE recorded and scored, and
+#       B's stretch outside the map merged into the map as a new version (MAP.UPDATE).
+# Not yet in it: several robots localizing at once.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup.sh

@@ -229,32 +229,6 @@ PointCloud seen_from(const PointCloud& scene_map, const Eigen::Isometry3d& T_map
   return cloud;
 }
 
-// The correlative search finds a pose 4 m and 20 degrees from its window's centre to within
-// its grid (1 m, 2 degrees), best first, its peaks distinct.
-TEST(CorrelativeSearch, FindsThePoseInItsWindow) {
-  std::mt19937 rng(6);
-  const PointCloud place = scene(rng);
-  const Eigen::Isometry3d truth =
-      se3::make(so3::exp(Eigen::Vector3d(0, 0, 20.0 * kPi / 180.0)), Eigen::Vector3d(3.4, -2.2, 0));
-  const CorrelativeSearchConfig config;
-  const CorrelativeSearch search(place.points, config);
-  SearchWindow window;
-  window.half_xy_m = 6.0;
-  window.half_yaw_rad = 0.63;
-  const std::vector<Eigen::Vector3f> query = sparse_points(seen_from(place, truth), 0.5f, 2000);
-  const std::vector<ScoredPose> peaks = search.search(query, Eigen::Matrix3d::Identity(), window);
-  ASSERT_EQ(peaks.size(), static_cast<size_t>(config.peaks));
-  const Eigen::Isometry3d error = truth.inverse() * peaks.front().T_map_body;
-  EXPECT_LT(error.translation().head<2>().norm(), 0.75) << error.translation().transpose();
-  EXPECT_LT(se3::rotation_angle(error) * 180.0 / kPi, 2.0);
-  for (size_t i = 1; i < peaks.size(); ++i) {
-    EXPECT_LE(peaks[i].score, peaks[i - 1].score);
-    const Eigen::Isometry3d d = peaks.front().T_map_body.inverse() * peaks[i].T_map_body;
-    EXPECT_TRUE(d.translation().norm() >= config.distinct_m ||
-                se3::rotation_angle(d) * 180.0 / kPi >= config.distinct_deg - 1e-6);
-  }
-}
-
 // Stale descriptors (every keyframe's yaw 90 degrees off what its cloud says) leave
 // coarse-to-fine no start that its heading allows: the correlative search around the coarse
 // pose finds one, and registration the pose.

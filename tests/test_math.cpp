@@ -150,6 +150,32 @@ TEST(Trajectory, InterpolatesBetweenPosesAndRefusesGaps) {
   EXPECT_NEAR(trajectory.path_length_m(), 4.0, 1e-12);
 }
 
+// A 1 Hz pose file and 2 Hz scans whose times went through microseconds (epoch times,
+// where a double keeps about 0.2 us): every scan inside the span gets a pose, the one at
+// the span's end included, and a time that does not says why.
+TEST(Trajectory, LookupMatchesRoundedTimesAndSaysWhyATimeHasNoPose) {
+  const double t0 = 1'700'000'000.123456789;
+  std::vector<StampedPose> poses;
+  for (int k = 0; k <= 10; ++k) {
+    poses.push_back({t0 + k, se3::make(Eigen::Matrix3d::Identity(), Eigen::Vector3d(k, 0, 0))});
+  }
+  poses.push_back({t0 + 14.0, Eigen::Isometry3d::Identity()});  // a 4 s gap
+  const Trajectory trajectory(poses);
+  for (int k = 0; k <= 20; ++k) {
+    const double scan_time = std::round((t0 + 0.5 * k) * 1e6) * 1e-6;  // as a utime
+    const TrajectoryLookup at = trajectory.lookup(scan_time, 1.5, 1e-3);
+    ASSERT_TRUE(at.T.has_value()) << "scan " << k;
+    EXPECT_NEAR(at.T->translation().x(), 0.5 * k, 1e-3) << "scan " << k;
+  }
+  EXPECT_FALSE(trajectory.at(std::round((t0 + 10.0) * 1e6) * 1e-6 + 1e-7, 1.5));  // no tolerance
+  const TrajectoryLookup gap = trajectory.lookup(t0 + 12.0, 1.5, 1e-3);
+  EXPECT_FALSE(gap.T.has_value());
+  EXPECT_EQ(gap.coverage, TrajectoryCoverage::kInGap);
+  EXPECT_NEAR(gap.gap_s, 4.0, 1e-6);
+  EXPECT_EQ(trajectory.lookup(t0 - 0.01, 1.5, 1e-3).coverage, TrajectoryCoverage::kBeforeStart);
+  EXPECT_EQ(trajectory.lookup(t0 + 14.01, 1.5, 1e-3).coverage, TrajectoryCoverage::kAfterEnd);
+}
+
 TEST(Trajectory, RejectsDuplicateTimestamps) {
   EXPECT_THROW(
       Trajectory({{1.0, Eigen::Isometry3d::Identity()}, {1.0, Eigen::Isometry3d::Identity()}}),

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <variant>
 
 #include "eval/trajectory_metrics.hpp"
@@ -306,6 +307,68 @@ TEST(Odometry, LidarOnlyModeAlsoTracks) {
   const eval::TrajectoryMetrics m = replay(r, odometry).metrics(r);
   EXPECT_LT(m.rpe_translation_percent, 3.0);
   EXPECT_LT(m.ate_position_rmse_m, 2.0);
+}
+
+// Sweeps spaced irregularly (two of every three dropped, 0.3 s apart): the LiDAR-only
+// motion model's velocity is the motion over the time since the previous sweep, which the
+// prediction covers, not over a sweep's own duration (that made it three times too fast).
+TEST(Odometry, LidarOnlyModeTracksSweepsSpacedIrregularly) {
+  const Recording& r = campus_drive();
+  OdometryConfig config = config_for(r);
+  config.use_imu = false;
+  LidarInertialOdometry odometry(config);
+  int sweeps = 0;
+  const Replayed run = replay(r, odometry, [&](const auto& event) {
+    return !std::holds_alternative<LidarScan>(event) || sweeps++ % 3 == 0;
+  });
+  const eval::TrajectoryMetrics m = run.metrics(r);
+  EXPECT_GT(m.path_length_m, 200.0);
+  EXPECT_LT(m.rpe_translation_percent, 3.0);
+  EXPECT_LT(m.ate_position_rmse_m, 2.0);
+}
+
+// After a pause, a sweep that fits no part of the local map (its points scaled threefold:
+// a scene that exists nowhere) is not forced into it: the estimate says it is lost and
+// why, the local map restarts, and the sweeps after it track again.
+TEST(Odometry, ASweepThatFitsNothingRestartsTheLocalMapAndSaysSo) {
+  const Recording& r = campus_drive();
+  OdometryConfig config = config_for(r);
+  config.use_imu = false;
+  LidarInertialOdometry odometry(config);
+  const int64_t t0 = r.config.start_utime;
+  bool scaled = false;
+  const Replayed run = replay(r, odometry, [&](std::variant<ImuSample, LidarScan>& e) {
+    LidarScan* scan = std::get_if<LidarScan>(&e);
+    const double t = scan == nullptr ? 0.0 : (scan->utime_us - t0) * 1e-6;
+    if (t > 20.0 && t < 22.0) {
+      return false;  // a 2 s pause
+    }
+    if (t >= 22.0 && !scaled) {
+      scaled = true;
+      for (LidarPoint& p : scan->points) {
+        p.position_m *= 3.0f;
+      }
+    }
+    return true;
+  });
+  EXPECT_GE(odometry.counters().map_restarts, 1);
+  const auto lost = std::find_if(run.estimates.begin(), run.estimates.end(),
+                                 [](const OdometryEstimate& e) { return !e.lost_reason.empty(); });
+  ASSERT_NE(lost, run.estimates.end());
+  EXPECT_NEAR(lost->utime_us * 1e-6, t0 * 1e-6 + 22.1, 0.2) << lost->lost_reason;
+  EXPECT_NE(lost->lost_reason.find("the local map restarts"), std::string::npos);
+  // From 30 s to 60 s after the start the estimate moves as the truth does.
+  const Trajectory estimate = run.trajectory();
+  const double a = t0 * 1e-6 + 30.0, b = t0 * 1e-6 + 60.0;
+  const Eigen::Isometry3d moved_est = estimate.at(a, 0.5)->inverse() * *estimate.at(b, 0.5);
+  const Eigen::Isometry3d moved_truth =
+      r.ground_truth.at(a, 0.5)->inverse() * *r.ground_truth.at(b, 0.5);
+  EXPECT_GT(moved_truth.translation().norm(), 30.0);
+  EXPECT_LT((moved_est.translation() - moved_truth.translation()).norm(),
+            0.03 * moved_truth.translation().norm());
+  for (const OdometryEstimate& e : run.estimates) {
+    ASSERT_TRUE(e.T_odom_body.matrix().allFinite());
+  }
 }
 
 // Half a second of IMU lost twice, repeated and reordered samples and sweeps, empty

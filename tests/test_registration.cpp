@@ -7,10 +7,13 @@
 #include "math/so3.hpp"
 #include "pointcloud/voxel_grid.hpp"
 #include "real_pair.hpp"
+#include "registration/correlative_search.hpp"
 #include "registration/point_to_plane_registration.hpp"
 
 namespace liloc {
 namespace {
+
+constexpr double kPi = 3.141592653589793;
 
 // Points on the three walls of a room corner and a floor: every direction constrained.
 std::vector<Eigen::Vector3f> room(std::mt19937& rng, float noise) {
@@ -191,6 +194,32 @@ TEST(Registration, RecoversTheRealPairWithinFiveCentimetresAndHalfADegree) {
   // Sanity: the pose rests on many planes, not a lucky few. Only part of this real scan
   // forms planar patches at the map's density: 761 of its 4950 points match.
   EXPECT_GT(r.correspondences, static_cast<int>(source.size()) / 10);
+}
+
+// The correlative search finds a pose 3.4 m, 2.2 m and 20 degrees from its window's centre
+// to within its grid (1 m, 2 degrees), best first, its peaks distinct.
+TEST(CorrelativeSearch, FindsThePoseInItsWindow) {
+  std::mt19937 rng(6);
+  const std::vector<Eigen::Vector3f> place = room(rng, 0.01f);
+  const Eigen::Isometry3d truth =
+      se3::make(so3::exp(Eigen::Vector3d(0, 0, 20.0 * kPi / 180.0)), Eigen::Vector3d(3.4, -2.2, 0));
+  const CorrelativeSearchConfig config;
+  const CorrelativeSearch search(place, config);
+  SearchWindow window;
+  window.half_xy_m = 6.0;
+  window.half_yaw_rad = 0.63;
+  const std::vector<ScoredPose> peaks =
+      search.search(transformed(place, truth.inverse()), Eigen::Matrix3d::Identity(), window);
+  ASSERT_EQ(peaks.size(), static_cast<size_t>(config.peaks));
+  const Eigen::Isometry3d error = truth.inverse() * peaks.front().T_map_body;
+  EXPECT_LT(error.translation().head<2>().norm(), 0.75) << error.translation().transpose();
+  EXPECT_LE(se3::rotation_angle(error) * 180.0 / kPi, config.yaw_step_deg + 1e-6);
+  for (size_t i = 1; i < peaks.size(); ++i) {
+    EXPECT_LE(peaks[i].score, peaks[i - 1].score);
+    const Eigen::Isometry3d d = peaks.front().T_map_body.inverse() * peaks[i].T_map_body;
+    EXPECT_TRUE(d.translation().norm() >= config.distinct_m ||
+                se3::rotation_angle(d) * 180.0 / kPi >= config.distinct_deg - 1e-6);
+  }
 }
 
 TEST(RegistrationStages, NeedOneValueOfEachPerStage) {

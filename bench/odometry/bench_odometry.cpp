@@ -1,13 +1,18 @@
 // bench_odometry: the LiDAR-inertial odometry over simulated sessions (every LiDAR
 // model, campus and corridor). Each session is simulated in memory and fed to the
 // odometry as the process would receive it; the estimate is scored against ground truth.
-// Prints a table and writes bench/results/odometry.json with, per run: session, world,
-// lidar, rpe_percent, ate_m, ms_median, ms_p99, peak_rss_mb.
+// With --imu on,off and --timing regular,irregular it runs each session with and without
+// the IMU, with every sweep and with sweeps dropped (gaps up to 5 s); --world-seed draws
+// another town. Prints a table and writes bench/results/odometry.json with, per run:
+// session, world, world_seed, lidar, imu, sweeps, rpe_percent, ate_m, ms_median, ms_p99,
+// peak_rss_mb, ...
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <string>
 
 #include "app/process_memory.hpp"
@@ -24,9 +29,43 @@
 namespace {
 using namespace liloc;
 
+// Which sweeps reach the odometry: all, or (irregular) a third dropped at random and,
+// about every 20 s, a gap of 1-5 s, as a lossy link or a rate-filtered log gives them.
+class SweepDropper {
+ public:
+  SweepDropper(bool irregular, uint64_t seed) : irregular_(irregular), rng_(seed) {}
+  bool keep(int64_t utime_us) {
+    if (!irregular_) {
+      return true;
+    }
+    if (utime_us < gap_end_us_) {
+      return false;
+    }
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    if (u(rng_) < 0.005) {  // at 10 Hz: one gap per 20 s
+      const int64_t gap_us = static_cast<int64_t>((1.0 + 4.0 * u(rng_)) * 1e6);
+      gap_end_us_ = utime_us + gap_us;
+      longest_gap_s_ = std::max(longest_gap_s_, gap_us * 1e-6);
+      return false;
+    }
+    return u(rng_) >= 1.0 / 3.0;
+  }
+  double longest_gap_s() const { return longest_gap_s_; }
+
+ private:
+  bool irregular_;
+  std::mt19937_64 rng_;
+  int64_t gap_end_us_ = 0;
+  double longest_gap_s_ = 0.0;
+};
+
 struct Run {
   std::string world, lidar, session;
   bool use_imu = true;
+  int64_t world_seed = 1;
+  bool irregular = false;
+  double longest_gap_s = 0.0;
+  int64_t sweeps_used = 0;
   eval::TrajectoryMetrics metrics;
   eval::LatencyStats latency;
   // Median per-stage milliseconds: preprocess, propagate + deskew, register, map, keyframe.
@@ -36,6 +75,9 @@ struct Run {
   double rss_end_mb = 0.0;
   size_t map_points = 0;
   int64_t degenerate_scans = 0;
+  int64_t searched_scans = 0;
+  int64_t map_restarts = 0;
+  int64_t lost_scans = 0;
   int64_t keyframes = 0;
   double accel_bias_error = 0.0;
   double gyro_bias_error = 0.0;
@@ -43,9 +85,10 @@ struct Run {
 
 Run run_session(const std::string& world_kind, const std::string& lidar, const std::string& session,
                 bool use_imu, double length_scale, int trace, bool clean_imu,
-                const std::string& config_path) {
+                const std::string& config_path, int64_t world_seed, bool irregular) {
   sim::SimulationConfig sim_config;
   sim_config.world.kind = world_kind;
+  sim_config.world.seed = world_seed;
   sim::scale_session_lengths(sim_config.sessions, length_scale);
   const sim::SimulatedSessions simulated(sim_config);
   const sim::SimulatedSession recipe = simulated.session(session);
@@ -74,6 +117,9 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   run.lidar = lidar;
   run.session = session;
   run.use_imu = use_imu;
+  run.world_seed = world_seed;
+  run.irregular = irregular;
+  SweepDropper dropper(irregular, seed + 7);
   std::vector<StampedPose> estimate;
   std::vector<double> cycle_ms;
   std::array<std::vector<double>, 5> stage_ms;
@@ -110,15 +156,22 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   };
   simulator.run([&](const ImuSample& s) { odometry.add_imu(s); },
                 [&](const LidarScan& scan) {
-                  odometry.add_scan(scan);
-                  consume(odometry.process());
+                  if (dropper.keep(scan.utime_us)) {
+                    ++run.sweeps_used;
+                    odometry.add_scan(scan);
+                    consume(odometry.process());
+                  }
                 },
                 [](double) {}, 2);
   consume(odometry.flush());
   run.rss_end_mb = read_process_memory().rss_mb;
   run.peak_rss_mb = read_process_memory().peak_mb;
+  run.longest_gap_s = dropper.longest_gap_s();
   run.map_points = odometry.map_points();
   run.degenerate_scans = odometry.counters().degenerate_scans;
+  run.searched_scans = odometry.counters().searched_scans;
+  run.map_restarts = odometry.counters().map_restarts;
+  run.lost_scans = odometry.counters().lost_scans;
   run.keyframes = odometry.counters().keyframes;
   if (use_imu) {
     // The true biases drift only a little (random walk) from their turn-on values.
@@ -135,6 +188,23 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   }
   return run;
 }
+
+void print_row(const Run& r) {
+  std::printf(
+      "| %s | %lld | %s | %s | %s | %s | %.1f | %.0f | %.3f | %.3f | %.3f | %.1f | %.1f | %.1f | "
+      "%.0f | %.0f | %.0f | %zu | %lld | %lld | %lld (%lld) | %.4f | %.5f | "
+      "%.1f/%.1f/%.1f/%.1f/%.1f |\n",
+      r.world.c_str(), static_cast<long long>(r.world_seed), r.lidar.c_str(), r.session.c_str(),
+      r.use_imu ? "yes" : "no", r.irregular ? "irregular" : "all", r.longest_gap_s,
+      r.metrics.path_length_m, r.metrics.ate_position_rmse_m, r.metrics.rpe_translation_percent,
+      r.metrics.rpe_rotation_deg_per_100m, r.latency.median_ms, r.latency.p99_ms, r.latency.max_ms,
+      r.rss_quarter_mb, r.rss_end_mb, r.peak_rss_mb, r.map_points,
+      static_cast<long long>(r.degenerate_scans), static_cast<long long>(r.searched_scans),
+      static_cast<long long>(r.lost_scans), static_cast<long long>(r.map_restarts),
+      r.accel_bias_error, r.gyro_bias_error, r.stage_median_ms[0], r.stage_median_ms[1],
+      r.stage_median_ms[2], r.stage_median_ms[3], r.stage_median_ms[4]);
+  std::fflush(stdout);
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -143,9 +213,11 @@ int main(int argc, char** argv) {
   std::string sessions = "A";
   std::string json_path = "bench/results/odometry.json";
   double length_scale = 1.0;
-  bool lidar_only = false;
+  std::string imu = "on";
+  std::string timing = "regular";
   int trace = 0;
   bool clean_imu = false;
+  int world_seed = 1;
   std::string config_path;
   CommandLine cli("bench_odometry", "LiDAR-inertial odometry on simulated sessions.");
   cli.add_option("worlds", &worlds, "campus, corridor or both");
@@ -153,37 +225,45 @@ int main(int argc, char** argv) {
   cli.add_option("sessions", &sessions, "campus sessions (the corridor runs A)");
   cli.add_option("length-scale", &length_scale, "scale the sessions' route lengths");
   cli.add_option("json", &json_path, "result file ('' for none)");
-  cli.add_flag("lidar-only", &lidar_only, "run without the IMU (constant-velocity model)");
+  cli.add_option("imu", &imu, "on, off (LiDAR-only: constant-velocity model) or on,off");
   cli.add_option("config", &config_path, "YAML with an 'odometry' section (tuning)");
   cli.add_flag("clean-imu", &clean_imu, "simulate a noise- and bias-free IMU (diagnosis)");
+  cli.add_option("world-seed", &world_seed, "the simulated world's seed (another town)");
+  cli.add_option("timing", &timing,
+                 "regular, irregular (a third of the sweeps dropped at random and 1-5 s "
+                 "every ~20 s) or both");
   cli.add_option("trace", &trace, "print every N-th estimate against ground truth (0: none)");
   return run_program(cli, "bench_odometry", argc, argv, [&]() -> int {
     const std::vector<std::string> models =
         lidars == "all" ? sim::lidar_models() : split_list(lidars);
     std::vector<Run> runs;
     std::printf(
-        "| world | lidar | session | imu | length (m) | ATE (m) | RPE (%%) | RPE (deg/100m) | "
+        "| world | seed | lidar | session | imu | sweeps | gap max (s) | length (m) | ATE (m) | "
+        "RPE (%%) | RPE (deg/100m) | "
         "ms median | ms p99 | ms max | RSS 1/4 (MB) | RSS end (MB) | peak RSS (MB) | "
-        "map pts | degen | |ba err| | |bg err| | stages ms (pre/prop/reg/map/kf) |\n");
-    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        "map pts | degen | searched | lost (restarts) | |ba err| | |bg err| | stages ms "
+        "(pre/prop/reg/map/kf) "
+        "|\n");
+    std::printf(
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|-"
+        "--|---|"
+        "\n");
     for (const std::string& world : split_list(worlds)) {
       for (const std::string& session :
            world == "campus" ? split_list(sessions) : std::vector<std::string>{"A"}) {
         for (const std::string& model : models) {
-          const Run r = run_session(world, model, session, !lidar_only, length_scale, trace,
-                                    clean_imu, config_path);
-          std::printf(
-              "| %s | %s | %s | %s | %.0f | %.3f | %.3f | %.3f | %.1f | %.1f | %.1f | "
-              "%.0f | %.0f | %.0f | %zu | %lld | %.4f | %.5f | %.1f/%.1f/%.1f/%.1f/%.1f |\n",
-              r.world.c_str(), r.lidar.c_str(), r.session.c_str(), r.use_imu ? "yes" : "no",
-              r.metrics.path_length_m, r.metrics.ate_position_rmse_m,
-              r.metrics.rpe_translation_percent, r.metrics.rpe_rotation_deg_per_100m,
-              r.latency.median_ms, r.latency.p99_ms, r.latency.max_ms, r.rss_quarter_mb,
-              r.rss_end_mb, r.peak_rss_mb, r.map_points, static_cast<long long>(r.degenerate_scans),
-              r.accel_bias_error, r.gyro_bias_error, r.stage_median_ms[0], r.stage_median_ms[1],
-              r.stage_median_ms[2], r.stage_median_ms[3], r.stage_median_ms[4]);
-          std::fflush(stdout);
-          runs.push_back(r);
+          for (const std::string& imu_mode : split_list(imu)) {
+            for (const std::string& timing_mode : split_list(timing)) {
+              if ((imu_mode != "on" && imu_mode != "off") ||
+                  (timing_mode != "regular" && timing_mode != "irregular")) {
+                throw std::invalid_argument("--imu takes on/off, --timing regular/irregular");
+              }
+              runs.push_back(run_session(world, model, session, imu_mode == "on", length_scale,
+                                         trace, clean_imu, config_path, world_seed,
+                                         timing_mode == "irregular"));
+              print_row(runs.back());
+            }
+          }
         }
       }
     }
@@ -202,6 +282,14 @@ int main(int argc, char** argv) {
           .string(r.lidar)
           .key("imu")
           .boolean(r.use_imu)
+          .key("world_seed")
+          .integer(r.world_seed)
+          .key("sweeps")
+          .string(r.irregular ? "irregular" : "all")
+          .key("sweeps_used")
+          .integer(r.sweeps_used)
+          .key("longest_gap_s")
+          .number(r.longest_gap_s)
           .key("length_m")
           .number(r.metrics.path_length_m)
           .key("rpe_percent")
@@ -226,6 +314,12 @@ int main(int argc, char** argv) {
           .integer(static_cast<int64_t>(r.map_points))
           .key("degenerate_scans")
           .integer(r.degenerate_scans)
+          .key("searched_scans")
+          .integer(r.searched_scans)
+          .key("lost_scans")
+          .integer(r.lost_scans)
+          .key("map_restarts")
+          .integer(r.map_restarts)
           .key("accel_bias_error_mps2")
           .number(r.accel_bias_error)
           .key("gyro_bias_error_rps")

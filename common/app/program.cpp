@@ -1,10 +1,12 @@
 #include "app/program.hpp"
 
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <atomic>
 #include <csignal>
 #include <iostream>
+#include <memory>
 #include <stdexcept>
 
 namespace liloc {
@@ -28,6 +30,9 @@ void setup_logging(const std::string& level, const std::string& process_name) {
     throw std::invalid_argument("unknown log level '" + level +
                                 "' (trace, debug, info, warn, error, critical, off)");
   }
+  // Logs go to stderr, so that what a program prints (a table, a config, a pose) pipes.
+  spdlog::set_default_logger(std::make_shared<spdlog::logger>(
+      process_name, std::make_shared<spdlog::sinks::stderr_color_sink_mt>()));
   spdlog::set_level(parsed);
   spdlog::set_pattern("[%H:%M:%S.%e] [" + process_name + "] [%^%l%$] %v");
 }

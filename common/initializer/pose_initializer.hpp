@@ -31,7 +31,7 @@
 #include <vector>
 
 #include "descriptor/polar_descriptor.hpp"
-#include "initializer/correlative_search.hpp"
+#include "registration/correlative_search.hpp"
 #include "initializer/map_index.hpp"
 #include "math/se3.hpp"
 #include "pointcloud/point_cloud.hpp"

@@ -13,6 +13,16 @@ struct StampedPose {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
 };
 
+// Where a time falls on a trajectory: callers that match sensor data to poses report why
+// a time got none.
+enum class TrajectoryCoverage { kCovered, kBeforeStart, kAfterEnd, kInGap };
+
+struct TrajectoryLookup {
+  std::optional<Eigen::Isometry3d> T;
+  TrajectoryCoverage coverage = TrajectoryCoverage::kCovered;
+  double gap_s = 0.0;  // for kInGap: how far apart the poses around the time are
+};
+
 class Trajectory {
  public:
   Trajectory() = default;
@@ -29,6 +39,10 @@ class Trajectory {
   // nullopt if t lies outside the trajectory or the poses around it are more than
   // max_gap_s apart.
   std::optional<Eigen::Isometry3d> at(double t, double max_gap_s) const;
+  // As at(), and a time within tolerance_s of a pose takes that pose, also just outside
+  // the span: times that went through another clock's rounding (microseconds, a log's
+  // fixed decimals) still meet the pose recorded for them.
+  TrajectoryLookup lookup(double t, double max_gap_s, double tolerance_s = 0.0) const;
 
   // Length of the path of the positions, metres.
   double path_length_m() const;

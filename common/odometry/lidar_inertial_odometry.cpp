@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <type_traits>
+#include <utility>
 
 #include "math/so3.hpp"
 #include "math/stopwatch.hpp"
@@ -80,6 +83,10 @@ void OdometryConfig::validate() const {
     throw std::invalid_argument(
         "max_queued_scans must be at least 1 and imu_buffer_s within [1, 600]");
   }
+  if (uncertain_iterations < 1) {
+    throw std::invalid_argument("uncertain_iterations must be at least 1");
+  }
+  search.validate();
   if (!(correction_blend > 0 && correction_blend <= 1)) {
     throw std::invalid_argument("correction_blend must be in (0, 1]");
   }
@@ -95,6 +102,13 @@ void OdometryConfig::validate() const {
         {"correspondence_sigmas", correspondence_sigmas},
         {"correspondence_lever_m", correspondence_lever_m},
         {"correspondence_cap_m", correspondence_cap_m},
+        {"kernel_fraction", kernel_fraction},
+        {"search_beyond_m", search_beyond_m},
+        {"search_max_xy_m", search_max_xy_m},
+        {"search_max_yaw_rad", search_max_yaw_rad},
+        {"search_inlier_m", search_inlier_m},
+        {"search_min_inlier_ratio", search_min_inlier_ratio},
+        {"lost_after_degenerate_s", lost_after_degenerate_s},
         {"correction_max_step_m", correction_max_step_m},
         {"correction_max_step_rad", correction_max_step_rad},
         {"map_insert_translation_m", map_insert_translation_m},
@@ -276,13 +290,23 @@ void LidarInertialOdometry::predict(int64_t end_utime, MotionProfile& motion) {
   state_utime_ = end_utime;
 }
 
-RegistrationConfig LidarInertialOdometry::registration_config() const {
+double LidarInertialOdometry::prediction_reach_m() const {
   const double sigma_p = std::sqrt(P_.block<3, 3>(kPos, kPos).diagonal().maxCoeff());
   const double sigma_r = std::sqrt(P_.block<3, 3>(kRot, kRot).diagonal().maxCoeff());
+  return config_.correspondence_sigmas * (sigma_p + sigma_r * config_.correspondence_lever_m);
+}
+
+RegistrationConfig LidarInertialOdometry::registration_config() const {
   RegistrationConfig out = config_.registration;
-  out.max_correspondence_m = std::clamp(
-      config_.correspondence_sigmas * (sigma_p + sigma_r * config_.correspondence_lever_m),
-      config_.registration.max_correspondence_m, config_.correspondence_cap_m);
+  out.max_correspondence_m =
+      std::clamp(prediction_reach_m(), config_.registration.max_correspondence_m,
+                 config_.correspondence_cap_m);
+  if (out.max_correspondence_m > config_.registration.max_correspondence_m) {
+    out.cauchy_scale_m =
+        std::max(out.cauchy_scale_m, config_.kernel_fraction * out.max_correspondence_m);
+    out.max_iterations = std::max(out.max_iterations, config_.uncertain_iterations);
+    out.max_associations = std::max(out.max_associations, config_.uncertain_iterations);
+  }
   return out;
 }
 
@@ -390,6 +414,7 @@ LidarInertialOdometry::Sweep LidarInertialOdometry::preprocess(const LidarScan& 
 
 void LidarInertialOdometry::predict_and_deskew(Sweep& sweep, OdometryEstimate& est) {
   sweep.T_local_body_before = T_local_body();
+  sweep.utime_before = state_utime_;
   predict(sweep.end_utime, sweep.motion);
   if (config_.use_imu && config_.zero_velocity_update &&
       standing_still(sweep.start_utime, sweep.end_utime)) {
@@ -410,13 +435,38 @@ void LidarInertialOdometry::register_sweep(const Sweep& sweep, OdometryEstimate&
   PosePrior prior;
   prior.T_target_source = T_local_body();
   prior.information = P_.topLeftCorner<6, 6>().inverse();
-  const RegistrationResult result = register_point_to_plane(
-      strided(sweep.points_body, config_.max_registration_points), map_, prior.T_target_source,
-      prior, registration_config(), T_body_lidar_.translation());
+  const std::vector<Eigen::Vector3f> source =
+      strided(sweep.points_body, config_.max_registration_points);
+  RegistrationResult result;
+  if (prediction_reach_m() > config_.search_beyond_m) {
+    ++counters_.searched_scans;
+    const auto [found, inlier_ratio] = register_by_search(source, prior);
+    if (inlier_ratio < config_.search_min_inlier_ratio) {
+      // The sweep sees what the local map never did (around a corner, after a long pause):
+      // nothing to place it against, so the local map restarts from it at the predicted
+      // pose rather than take a pose that fits a few points.
+      char reason[160];
+      std::snprintf(reason, sizeof(reason),
+                    "after %.1f s without a sweep only %.0f %% of the sweep fits the local map: "
+                    "the local map restarts at the predicted pose",
+                    (sweep.end_utime - sweep.utime_before) * 1e-6, 100.0 * inlier_ratio);
+      est.lost_reason = reason;
+      ++counters_.map_restarts;
+      map_ = VoxelHashMap(config_.map);
+      have_map_insert_ = false;
+      return;
+    }
+    result = found;
+  } else {
+    result = register_point_to_plane(source, map_, prior.T_target_source, prior,
+                                     registration_config(), T_body_lidar_.translation());
+  }
   update(result);
   if (!config_.use_imu) {
+    // The velocity over the time since the previous sweep's end, which the prediction
+    // covered: not the sweep's own duration (scans spaced irregularly, dropped sweeps).
     const Eigen::Isometry3d& T_prev = sweep.T_local_body_before;
-    const double dt = std::max((sweep.end_utime - sweep.start_utime) * 1e-6, 1e-3);
+    const double dt = std::max((sweep.end_utime - sweep.utime_before) * 1e-6, 1e-3);
     twist_.head<3>() = T_prev.linear().transpose() * (x_.p - T_prev.translation()) / dt;
     twist_.tail<3>() = so3::log(T_prev.linear().transpose() * x_.R) / dt;
     x_.v = x_.R * twist_.head<3>();
@@ -427,6 +477,75 @@ void LidarInertialOdometry::register_sweep(const Sweep& sweep, OdometryEstimate&
   est.translation_eigen_ratio = result.translation_eigen_ratio;
   est.rotation_eigen_ratio = result.rotation_eigen_ratio;
   counters_.degenerate_scans += result.degenerate ? 1 : 0;
+  // Without an IMU nothing holds a degenerate direction but the constant-velocity guess;
+  // past lost_after_degenerate_s of it the estimate along that direction is not trusted.
+  degenerate_since_us_ = result.degenerate ? std::min(degenerate_since_us_, sweep.end_utime)
+                                           : std::numeric_limits<int64_t>::max();
+  const double degenerate_s = (sweep.end_utime - degenerate_since_us_) * 1e-6;
+  if (!config_.use_imu && degenerate_s >= config_.lost_after_degenerate_s) {
+    char reason[160];
+    std::snprintf(reason, sizeof(reason),
+                  "degenerate for %.1f s without an IMU: the motion along the weak direction is "
+                  "the constant-velocity guess",
+                  degenerate_s);
+    est.lost_reason = reason;
+  }
+}
+
+std::pair<RegistrationResult, double> LidarInertialOdometry::register_by_search(
+    const std::vector<Eigen::Vector3f>& source, const PosePrior& prior) const {
+  const double sigma_r = std::sqrt(P_.block<3, 3>(kRot, kRot).diagonal().maxCoeff());
+  const double yaw = so3::yaw(x_.R);
+  SearchWindow window;
+  window.x_m = x_.p.x();
+  window.y_m = x_.p.y();
+  window.z_m = x_.p.z();
+  window.yaw_rad = yaw;
+  window.half_xy_m = std::min(prediction_reach_m(), config_.search_max_xy_m);
+  window.half_yaw_rad =
+      std::min(config_.correspondence_sigmas * sigma_r, config_.search_max_yaw_rad);
+  const Eigen::Matrix3d R_level_body = so3::exp(Eigen::Vector3d(0, 0, -yaw)) * x_.R;
+  // Wider windows in coarser cells: at most 21 x 21 shifts per yaw.
+  CorrelativeSearchConfig search = config_.search;
+  search.cell_m = std::max(search.cell_m, window.half_xy_m / 10.0);
+  std::vector<Eigen::Isometry3d> starts{T_local_body()};
+  for (const ScoredPose& peak :
+       CorrelativeSearch(map_.points(), search).search(source, R_level_body, window)) {
+    starts.push_back(peak.T_map_body);
+  }
+  // Each start is within a search cell of its answer, so registration refines it as a well
+  // predicted sweep; the prediction's wide prior still holds what the scan leaves weak (a
+  // street's length).
+  RegistrationConfig refine = config_.registration;
+  refine.max_correspondence_m = std::max(refine.max_correspondence_m, search.cell_m);
+  refine.cauchy_scale_m =
+      std::max(refine.cauchy_scale_m, config_.kernel_fraction * refine.max_correspondence_m);
+  refine.max_iterations = std::max(refine.max_iterations, config_.uncertain_iterations);
+  refine.max_associations = std::max(refine.max_associations, config_.uncertain_iterations);
+  // Scored by the points that land within search_inlier_m of a map point: along a street,
+  // a start shifted by a metre finds as many planes (its walls) but not its poles and
+  // corners.
+  const auto inliers = [&](const Eigen::Isometry3d& T) {
+    const Eigen::Isometry3f Tf = T.cast<float>();
+    const float radius = static_cast<float>(config_.search_inlier_m);
+    int count = 0;
+    for (const Eigen::Vector3f& p : source) {
+      count += map_.nearest<1>(Tf * p, radius).count > 0;
+    }
+    return count;
+  };
+  std::optional<RegistrationResult> best;
+  int best_inliers = -1;
+  for (const Eigen::Isometry3d& start : starts) {
+    RegistrationResult r =
+        register_point_to_plane(source, map_, start, prior, refine, T_body_lidar_.translation());
+    const int n = inliers(r.T_target_source);
+    if (n > best_inliers) {
+      best_inliers = n;
+      best = std::move(r);
+    }
+  }
+  return {*best, static_cast<double>(best_inliers) / static_cast<double>(source.size())};
 }
 
 void LidarInertialOdometry::update_map(const Sweep& sweep) {
@@ -486,6 +605,7 @@ void LidarInertialOdometry::finish_estimate(OdometryEstimate& est) {
   est.gyro_bias = x_.bg;
   est.accel_bias = x_.ba;
   est.covariance = P_.topLeftCorner<6, 6>();
+  counters_.lost_scans += est.lost_reason.empty() ? 0 : 1;
   if (est.keyframe) {
     Keyframe& kf = *est.keyframe;
     kf.utime_us = end_utime;

@@ -10,6 +10,7 @@
 // them, up to imu_wait_s of newer data.
 
 #include <deque>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -19,6 +20,7 @@
 #include "odometry/motion_profile.hpp"
 #include "odometry/navigation_state.hpp"
 #include "odometry/odometry_types.hpp"
+#include "registration/correlative_search.hpp"
 #include "registration/point_to_plane_registration.hpp"
 #include "voxel_map/voxel_hash_map.hpp"
 
@@ -79,6 +81,32 @@ struct OdometryConfig {
   double correspondence_sigmas = 3.0;
   double correspondence_lever_m = 10.0;
   double correspondence_cap_m = 2.0;
+  // A radius above its floor means registration starts far from the answer (no IMU, an
+  // IMU gap, a long pause between sweeps): then the robust kernel widens with the radius
+  // (this fraction of it, never below registration.cauchy_scale_m) and registration may
+  // re-associate up to uncertain_iterations times until it converges, which is KISS-ICP's
+  // adaptive threshold (kernel a ninth of it) and iterating to convergence. With a tight
+  // 0.1 m kernel and 3 associations a sharp LiDAR-only turn advanced 1-3 degrees per sweep
+  // against a true 5 and diverged (docs/odometry.md).
+  double kernel_fraction = 0.1;
+  int uncertain_iterations = 15;
+  // Beyond that, after a pause (no IMU across dropped sweeps, an IMU gap): when the
+  // prediction's reach (the association radius before its cap) exceeds search_beyond_m, a
+  // correlative (x, y, yaw) search over the local map within that reach, at most
+  // search_max_xy_m and search_max_yaw_rad, gives the starts that registration refines; the
+  // one with the most points within search_inlier_m of the map wins.
+  double search_beyond_m = 4.0;
+  double search_max_xy_m = 20.0;
+  double search_max_yaw_rad = 1.6;
+  double search_inlier_m = 0.2;
+  // Below this share of inliers the sweep cannot be placed (it sees what the local map
+  // never did): the local map restarts from it at the predicted pose, and the estimate
+  // says why (OdometryEstimate::lost_reason).
+  double search_min_inlier_ratio = 0.3;
+  // Without an IMU, a degenerate streak this long makes the estimate lost (its reason
+  // says so): along the weak direction it is the constant-velocity model's guess.
+  double lost_after_degenerate_s = 3.0;
+  CorrelativeSearchConfig search;
   // Pose corrections are blended in: this fraction of what remains per sweep, at most
   // the step limits, so that the output never jumps.
   double correction_blend = 0.1;
@@ -121,6 +149,15 @@ struct OdometryConfig {
     v("correspondence_sigmas", correspondence_sigmas);
     v("correspondence_lever_m", correspondence_lever_m);
     v("correspondence_cap_m", correspondence_cap_m);
+    v("kernel_fraction", kernel_fraction);
+    v("uncertain_iterations", uncertain_iterations);
+    v("search_beyond_m", search_beyond_m);
+    v("search_max_xy_m", search_max_xy_m);
+    v("search_max_yaw_rad", search_max_yaw_rad);
+    v("search_inlier_m", search_inlier_m);
+    v("search_min_inlier_ratio", search_min_inlier_ratio);
+    v("lost_after_degenerate_s", lost_after_degenerate_s);
+    v("search", search);
     v("correction_blend", correction_blend);
     v("correction_max_step_m", correction_max_step_m);
     v("correction_max_step_rad", correction_max_step_rad);
@@ -173,7 +210,9 @@ class LidarInertialOdometry {
     std::vector<LidarPoint> sparse;            // one per registration voxel
     MotionProfile motion;                      // the body's motion over the sweep
     std::vector<Eigen::Vector3f> points_body;  // sparse, deskewed to the sweep's end
+    // The state before this sweep's prediction: the previous sweep's end.
     Eigen::Isometry3d T_local_body_before = Eigen::Isometry3d::Identity();
+    int64_t utime_before = 0;
   };
 
   std::vector<OdometryEstimate> run(bool force);
@@ -193,8 +232,16 @@ class LidarInertialOdometry {
   void update(const RegistrationResult& result);
   // True if the IMU samples of (t0, t1] show a standing vehicle.
   bool standing_still(int64_t t0_us, int64_t t1_us) const;
-  // The registration settings for this sweep: the association radius follows P_.
+  // The registration settings for this sweep: the association radius, the kernel and
+  // the iterations follow P_.
   RegistrationConfig registration_config() const;
+  // How far the prediction may be off at a point correspondence_lever_m away, at
+  // correspondence_sigmas.
+  double prediction_reach_m() const;
+  // Registration from the starts of a correlative search around the prediction, and the
+  // share of the source's points within search_inlier_m of the map there.
+  std::pair<RegistrationResult, double> register_by_search(
+      const std::vector<Eigen::Vector3f>& source, const PosePrior& prior) const;
   void zero_velocity_update();
   void blend_correction();
   std::optional<Eigen::Isometry3d> pose_in_history(int64_t utime_us) const;
@@ -226,6 +273,7 @@ class LidarInertialOdometry {
   Eigen::Isometry3d last_keyframe_T_local_body_ = Eigen::Isometry3d::Identity();
   int64_t next_keyframe_id_ = 0;
   int64_t sweeps_since_cleanup_ = 0;
+  int64_t degenerate_since_us_ = std::numeric_limits<int64_t>::max();  // the streak's start
   std::string last_failure_;
 };
 

@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <optional>
+#include <string>
 
 #include "math/se3.hpp"
 #include "pointcloud/point_cloud.hpp"
@@ -51,6 +52,10 @@ struct OdometryEstimate {
   bool degenerate = false;
   double translation_eigen_ratio = 0.0;
   double rotation_eigen_ratio = 0.0;
+  // Not empty: the estimate is not trusted, and why (a sweep that could not be placed:
+  // the pose is the prediction and the local map restarted from it; or a long degenerate
+  // streak without an IMU). STATUS.odometry reports it as MODE_LOST.
+  std::string lost_reason;
   OdometryTimings timings;
   std::optional<Keyframe> keyframe;
 };
@@ -73,6 +78,9 @@ struct OdometryCounters {
   int64_t scans_without_imu = 0;   // processed past the last IMU sample (IMU late or gone)
   int64_t imu_gaps = 0;            // IMU silences longer than max_sample_gap_s
   int64_t degenerate_scans = 0;
+  int64_t searched_scans = 0;    // prediction beyond registration's reach: searched first
+  int64_t map_restarts = 0;      // a sweep that could not be placed restarted the local map
+  int64_t lost_scans = 0;        // estimates with a lost_reason
   int64_t standstill_scans = 0;  // zero-velocity updates applied
   int64_t keyframes = 0;
   int64_t corrections_applied = 0;

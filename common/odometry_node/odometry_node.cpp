@@ -129,11 +129,11 @@ bool OdometryNode::finish() {
   const OdometryCounters& c = odometry_->counters();
   spdlog::info(
       "done: {} sweeps processed ({} received, {} out of order, {} too small, {} "
-      "before init, {} without IMU, {} failed), {} keyframes, {} degenerate; {} messages "
-      "refused at the door, {} restarts",
+      "before init, {} without IMU, {} failed), {} keyframes, {} degenerate, {} searched after "
+      "a pause, {} lost ({} local-map restarts); {} messages refused at the door, {} restarts",
       c.scans_processed, c.scans_received, c.scans_out_of_order, c.scans_too_small,
       c.scans_before_init, c.scans_without_imu, c.scans_failed, c.keyframes, c.degenerate_scans,
-      rejected_total_, restarts_);
+      c.searched_scans, c.lost_scans, c.map_restarts, rejected_total_, restarts_);
   return true;
 }
 
@@ -144,6 +144,13 @@ void OdometryNode::publish(const std::vector<OdometryEstimate>& estimates) {
     if (e.keyframe) {
       liloc::keyframe_t kf = bridge::to_msg(*e.keyframe, frames_);
       bus_.publish(keyframe_channel_, kf);
+    }
+    if (!e.lost_reason.empty()) {
+      last_problem_ = e.lost_reason;
+      const int64_t lost = odometry_->counters().lost_scans;
+      if (should_log(lost)) {  // the summary has the count
+        spdlog::warn("lost ({} sweeps so far): {}", lost, e.lost_reason);
+      }
     }
     publish_status(&e, e.utime_us);
   }
@@ -194,6 +201,9 @@ void OdometryNode::publish_status(const OdometryEstimate* e, int64_t utime_us) {
                      {"non_finite_imu", non_finite_imu_},
                      {"non_finite_points", non_finite_points_},
                      {"degenerate_scans", c.degenerate_scans},
+                     {"searched_scans", c.searched_scans},
+                     {"map_restarts", c.map_restarts},
+                     {"lost_scans", c.lost_scans},
                      {"standstill_scans", c.standstill_scans},
                      {"keyframes", c.keyframes},
                      {"corrections_applied", c.corrections_applied},
@@ -211,6 +221,9 @@ void OdometryNode::publish_status(const OdometryEstimate* e, int64_t utime_us) {
     if (!last_problem_.empty()) {
       report.message += "; last problem: " + last_problem_;
     }
+  } else if (!e->lost_reason.empty()) {
+    report.mode = liloc::status_t::MODE_LOST;
+    report.message = e->lost_reason;
   } else if (!e->registered) {
     report.message = "sweep too small to register: pose from the motion model";
   } else if (e->degenerate) {

@@ -301,6 +301,18 @@ int prune(int argc, const char* const* argv) {
   });
 }
 
+int print_config(int argc, const char* const* argv) {
+  std::string config_path;  // see kConfigOptionHelp
+  CommandLine cli("liloc_map --print-config",
+                  "Prints the config the subcommands run with, as YAML: the built-in defaults "
+                  "(the paper's values), ./config/liloc.yaml if there is one, or --config.");
+  cli.add_option("config", &config_path, kConfigOptionHelp);
+  return run_program(cli, kProgram, argc, argv, [&]() -> int {
+    std::printf("%s\n", dump_config(load_program_config<SystemConfig>(config_path)).c_str());
+    return 0;
+  });
+}
+
 struct Subcommand {
   const char* name;
   const char* summary;
@@ -320,6 +332,8 @@ const Subcommand kSubcommands[] = {
     {"prune", "remove old versions and unlisted keyframe files", prune},
     {"localize", "one scan (PCD or KITTI .bin) in the map, with or without a coarse pose",
      localize_scan},
+    {"--print-config", "the effective config as YAML (defaults, ./config/liloc.yaml, --config)",
+     print_config},
 };
 
 void print_usage(std::ostream& out) {

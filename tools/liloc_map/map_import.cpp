@@ -38,11 +38,13 @@ Keyframe make_keyframe(int64_t id, int64_t utime_us, const Eigen::Isometry3d& T_
 
 int build_map_from_poses(int argc, const char* const* argv) {
   std::vector<std::string> args;
-  std::string config_path = "config/liloc.yaml";
+  std::string config_path;  // see kConfigOptionHelp
   std::string format = "folder";
   std::string sequence;
   std::string poses_path;
   std::string map_id = "liloc-map";
+  double max_gap_s = 1.5;     // a 1 Hz pose file still interpolates
+  double tolerance_s = 1e-3;  // a scan this close to a pose takes it
   CommandLine cli("liloc_map build-from-poses",
                   "Builds a map directory from LiDAR scans with known poses: a KITTI odometry "
                   "sequence with its poses, or a folder of PCD scans with a TUM trajectory. "
@@ -52,10 +54,17 @@ int build_map_from_poses(int argc, const char* const* argv) {
   cli.add_option("sequence", &sequence, "KITTI sequence (default 00)");
   cli.add_option("poses", &poses_path,
                  "TUM file of T_world_body at the scans' times (default: the dataset's own)");
-  cli.add_option("config", &config_path, "system config (YAML)");
+  cli.add_option("max-gap-s", &max_gap_s,
+                 "interpolate between poses at most this far apart, seconds");
+  cli.add_option("time-tolerance-s", &tolerance_s,
+                 "a scan within this of a pose's time takes that pose, seconds");
+  cli.add_option("config", &config_path, kConfigOptionHelp);
   cli.add_option("map-id", &map_id, "the map's id");
   return run_program(cli, kProgram, argc, argv, [&]() -> int {
-    const SystemConfig config = load_config<SystemConfig>(config_path);
+    if (!(max_gap_s > 0) || !(tolerance_s >= 0)) {
+      throw std::invalid_argument("--max-gap-s must be positive, --time-tolerance-s not negative");
+    }
+    const SystemConfig config = load_program_config<SystemConfig>(config_path);
     require_new_map_directory(args[1]);
     std::unique_ptr<dataset::SensorDatasetReader> reader =
         dataset::open_dataset(format, args[0], sequence, {});
@@ -70,7 +79,9 @@ int build_map_from_poses(int argc, const char* const* argv) {
     // Known poses need no loop closing; consecutive keyframes are still linked by edges.
     CentralSessionBuilder builder = central_session_builder(config, "poses", false);
     std::optional<Eigen::Isometry3d> last;
-    int64_t scans = 0, without_pose = 0, keyframes = 0;
+    int64_t scans = 0, keyframes = 0;
+    std::map<TrajectoryCoverage, std::vector<double>> without_pose;  // scan times by reason
+    double widest_gap_s = 0.0;
     dataset::SensorEvent event;
     while (reader->next(event)) {
       const LidarScan* scan = std::get_if<LidarScan>(&event);
@@ -78,13 +89,16 @@ int build_map_from_poses(int argc, const char* const* argv) {
         continue;
       }
       ++scans;
-      const std::optional<Eigen::Isometry3d> T_map_body = poses.at(scan->utime_us * 1e-6, 0.5);
-      if (!T_map_body) {
-        ++without_pose;
+      const double time_s = scan->utime_us * 1e-6;
+      const TrajectoryLookup pose = poses.lookup(time_s, max_gap_s, tolerance_s);
+      if (!pose.T) {
+        without_pose[pose.coverage].push_back(time_s);
+        widest_gap_s = std::max(widest_gap_s, pose.gap_s);
         continue;
       }
+      const Eigen::Isometry3d& T_map_body = *pose.T;
       if (last) {
-        const Eigen::Isometry3d step = last->inverse() * *T_map_body;
+        const Eigen::Isometry3d step = last->inverse() * T_map_body;
         if (step.translation().norm() < odometry.keyframe_translation_m &&
             so3::log(step.linear()).norm() < odometry.keyframe_rotation_rad) {
           continue;
@@ -100,7 +114,7 @@ int build_map_from_poses(int argc, const char* const* argv) {
         }
       }
       builder.add(
-          make_keyframe(keyframes++, scan->utime_us, *T_map_body,
+          make_keyframe(keyframes++, scan->utime_us, T_map_body,
                         voxel_downsample(cloud, static_cast<float>(odometry.keyframe_voxel_m))));
       last = T_map_body;
     }
@@ -110,15 +124,29 @@ int build_map_from_poses(int argc, const char* const* argv) {
     }
     CentralSessionReport report;
     save_built_map(builder, config, args[1], map_id, &report);
-    std::printf("scans           %lld read, %lld without a pose\n", static_cast<long long>(scans),
-                static_cast<long long>(without_pose));
+    size_t missing = 0;
+    for (const auto& [coverage, times] : without_pose) {
+      missing += times.size();
+    }
+    std::printf("scans           %lld read, %zu without a pose\n", static_cast<long long>(scans),
+                missing);
+    for (const auto& [coverage, times] : without_pose) {
+      const std::string why =
+          coverage == TrajectoryCoverage::kBeforeStart ? "before the poses' first time"
+          : coverage == TrajectoryCoverage::kAfterEnd
+              ? "after the poses' last time"
+              : fmt::format("between poses up to {:.2f} s apart (--max-gap-s {:.2f})", widest_gap_s,
+                            max_gap_s);
+      spdlog::warn("{} scan(s) {}: first at {:.6f} s, last at {:.6f} s", times.size(), why,
+                   times.front(), times.back());
+    }
     return 0;
   });
 }
 
 int build_map_from_pcd(int argc, const char* const* argv) {
   std::vector<std::string> args;
-  std::string config_path = "config/liloc.yaml";
+  std::string config_path;  // see kConfigOptionHelp
   std::string map_id = "liloc-map";
   PcdTilingConfig tiling;
   CommandLine cli("liloc_map build-from-pcd",
@@ -130,11 +158,11 @@ int build_map_from_pcd(int argc, const char* const* argv) {
   cli.add_option("radius-m", &tiling.radius_m, "points within this xy distance go to a keyframe");
   cli.add_option("height-m", &tiling.height_m, "keyframe height above the cell's lowest points");
   cli.add_option("min-points", &tiling.min_points, "cells with fewer points get no keyframe");
-  cli.add_option("config", &config_path, "system config (YAML)");
+  cli.add_option("config", &config_path, kConfigOptionHelp);
   cli.add_option("map-id", &map_id, "the map's id");
   return run_program(cli, kProgram, argc, argv, [&]() -> int {
     tiling.validate();
-    const SystemConfig config = load_config<SystemConfig>(config_path);
+    const SystemConfig config = load_program_config<SystemConfig>(config_path);
     require_new_map_directory(args[1]);
     const PointCloud all = [&] {
       const LidarScan scan = dataset::read_pcd_scan(args[0], 0, 0.1f).scan;

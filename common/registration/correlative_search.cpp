@@ -1,4 +1,4 @@
-#include "initializer/correlative_search.hpp"
+#include "registration/correlative_search.hpp"
 
 #include <algorithm>
 #include <cmath>
