@@ -296,11 +296,9 @@ double LidarInertialOdometry::prediction_reach_m() const {
   return config_.correspondence_sigmas * (sigma_p + sigma_r * config_.correspondence_lever_m);
 }
 
-RegistrationConfig LidarInertialOdometry::registration_config() const {
+RegistrationConfig LidarInertialOdometry::registration_config(double radius_m) const {
   RegistrationConfig out = config_.registration;
-  out.max_correspondence_m =
-      std::clamp(prediction_reach_m(), config_.registration.max_correspondence_m,
-                 config_.correspondence_cap_m);
+  out.max_correspondence_m = std::max(radius_m, config_.registration.max_correspondence_m);
   if (out.max_correspondence_m > config_.registration.max_correspondence_m) {
     out.cauchy_scale_m =
         std::max(out.cauchy_scale_m, config_.kernel_fraction * out.max_correspondence_m);
@@ -458,8 +456,10 @@ void LidarInertialOdometry::register_sweep(const Sweep& sweep, OdometryEstimate&
     }
     result = found;
   } else {
-    result = register_point_to_plane(source, map_, prior.T_target_source, prior,
-                                     registration_config(), T_body_lidar_.translation());
+    result = register_point_to_plane(
+        source, map_, prior.T_target_source, prior,
+        registration_config(std::min(prediction_reach_m(), config_.correspondence_cap_m)),
+        T_body_lidar_.translation());
   }
   update(result);
   if (!config_.use_imu) {
@@ -516,12 +516,7 @@ std::pair<RegistrationResult, double> LidarInertialOdometry::register_by_search(
   // Each start is within a search cell of its answer, so registration refines it as a well
   // predicted sweep; the prediction's wide prior still holds what the scan leaves weak (a
   // street's length).
-  RegistrationConfig refine = config_.registration;
-  refine.max_correspondence_m = std::max(refine.max_correspondence_m, search.cell_m);
-  refine.cauchy_scale_m =
-      std::max(refine.cauchy_scale_m, config_.kernel_fraction * refine.max_correspondence_m);
-  refine.max_iterations = std::max(refine.max_iterations, config_.uncertain_iterations);
-  refine.max_associations = std::max(refine.max_associations, config_.uncertain_iterations);
+  const RegistrationConfig refine = registration_config(search.cell_m);
   // Scored by the points that land within search_inlier_m of a map point: along a street,
   // a start shifted by a metre finds as many planes (its walls) but not its poles and
   // corners.

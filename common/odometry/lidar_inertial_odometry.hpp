@@ -89,7 +89,7 @@ struct OdometryConfig {
   // 0.1 m kernel and 3 associations a sharp LiDAR-only turn advanced 1-3 degrees per sweep
   // against a true 5 and diverged (docs/odometry.md).
   double kernel_fraction = 0.1;
-  int uncertain_iterations = 15;
+  int uncertain_iterations = 30;
   // Beyond that, after a pause (no IMU across dropped sweeps, an IMU gap): when the
   // prediction's reach (the association radius before its cap) exceeds search_beyond_m, a
   // correlative (x, y, yaw) search over the local map within that reach, at most
@@ -232,9 +232,10 @@ class LidarInertialOdometry {
   void update(const RegistrationResult& result);
   // True if the IMU samples of (t0, t1] show a standing vehicle.
   bool standing_still(int64_t t0_us, int64_t t1_us) const;
-  // The registration settings for this sweep: the association radius, the kernel and
-  // the iterations follow P_.
-  RegistrationConfig registration_config() const;
+  // The registration settings at an association radius (at least the floor,
+  // registration.max_correspondence_m): above the floor the kernel widens and the
+  // iterations grow (kernel_fraction, uncertain_iterations).
+  RegistrationConfig registration_config(double radius_m) const;
   // How far the prediction may be off at a point correspondence_lever_m away, at
   // correspondence_sigmas.
   double prediction_reach_m() const;
