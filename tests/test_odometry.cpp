@@ -221,8 +221,9 @@ const Recording& campus_drive() {
   return r;
 }
 
-OdometryConfig config_for(const Recording& r) {
+OdometryConfig config_for(const Recording& r, bool use_imu = true) {
   OdometryConfig c;
+  c.use_imu = use_imu;
   c.lidar_translation_m = r.config.rig.lidar_translation_m;
   c.lidar_rpy_deg = r.config.rig.lidar_rpy_deg;
   return c;
@@ -301,9 +302,7 @@ TEST(Odometry, TracksASimulatedDriveAndRecoversTheBiases) {
 
 TEST(Odometry, LidarOnlyModeAlsoTracks) {
   const Recording& r = campus_drive();
-  OdometryConfig config = config_for(r);
-  config.use_imu = false;
-  LidarInertialOdometry odometry(config);
+  LidarInertialOdometry odometry(config_for(r, false));
   const eval::TrajectoryMetrics m = replay(r, odometry).metrics(r);
   EXPECT_LT(m.rpe_translation_percent, 3.0);
   EXPECT_LT(m.ate_position_rmse_m, 2.0);
@@ -314,9 +313,7 @@ TEST(Odometry, LidarOnlyModeAlsoTracks) {
 // prediction covers, not over a sweep's own duration (that made it three times too fast).
 TEST(Odometry, LidarOnlyModeTracksSweepsSpacedIrregularly) {
   const Recording& r = campus_drive();
-  OdometryConfig config = config_for(r);
-  config.use_imu = false;
-  LidarInertialOdometry odometry(config);
+  LidarInertialOdometry odometry(config_for(r, false));
   int sweeps = 0;
   const Replayed run = replay(r, odometry, [&](const auto& event) {
     return !std::holds_alternative<LidarScan>(event) || sweeps++ % 3 == 0;
@@ -332,9 +329,7 @@ TEST(Odometry, LidarOnlyModeTracksSweepsSpacedIrregularly) {
 // why, the local map restarts, and the sweeps after it track again.
 TEST(Odometry, ASweepThatFitsNothingRestartsTheLocalMapAndSaysSo) {
   const Recording& r = campus_drive();
-  OdometryConfig config = config_for(r);
-  config.use_imu = false;
-  LidarInertialOdometry odometry(config);
+  LidarInertialOdometry odometry(config_for(r, false));
   const int64_t t0 = r.config.start_utime;
   bool scaled = false;
   const Replayed run = replay(r, odometry, [&](std::variant<ImuSample, LidarScan>& e) {

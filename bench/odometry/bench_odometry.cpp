@@ -236,6 +236,11 @@ int main(int argc, char** argv) {
   return run_program(cli, "bench_odometry", argc, argv, [&]() -> int {
     const std::vector<std::string> models =
         lidars == "all" ? sim::lidar_models() : split_list(lidars);
+    for (const std::string& mode : split_list(imu + "," + timing)) {
+      if (mode != "on" && mode != "off" && mode != "regular" && mode != "irregular") {
+        throw std::invalid_argument("--imu takes on/off, --timing regular/irregular: " + mode);
+      }
+    }
     std::vector<Run> runs;
     std::printf(
         "| world | seed | lidar | session | imu | sweeps | gap max (s) | length (m) | ATE (m) | "
@@ -254,10 +259,6 @@ int main(int argc, char** argv) {
         for (const std::string& model : models) {
           for (const std::string& imu_mode : split_list(imu)) {
             for (const std::string& timing_mode : split_list(timing)) {
-              if ((imu_mode != "on" && imu_mode != "off") ||
-                  (timing_mode != "regular" && timing_mode != "irregular")) {
-                throw std::invalid_argument("--imu takes on/off, --timing regular/irregular");
-              }
               runs.push_back(run_session(world, model, session, imu_mode == "on", length_scale,
                                          trace, clean_imu, config_path, world_seed,
                                          timing_mode == "irregular"));

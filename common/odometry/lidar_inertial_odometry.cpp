@@ -436,9 +436,10 @@ void LidarInertialOdometry::register_sweep(const Sweep& sweep, OdometryEstimate&
   const std::vector<Eigen::Vector3f> source =
       strided(sweep.points_body, config_.max_registration_points);
   RegistrationResult result;
-  if (prediction_reach_m() > config_.search_beyond_m) {
+  const double reach_m = prediction_reach_m();
+  if (reach_m > config_.search_beyond_m) {
     ++counters_.searched_scans;
-    const auto [found, inlier_ratio] = register_by_search(source, prior);
+    const auto [found, inlier_ratio] = register_by_search(source, prior, reach_m);
     if (inlier_ratio < config_.search_min_inlier_ratio) {
       // The sweep sees what the local map never did (around a corner, after a long pause):
       // nothing to place it against, so the local map restarts from it at the predicted
@@ -458,7 +459,7 @@ void LidarInertialOdometry::register_sweep(const Sweep& sweep, OdometryEstimate&
   } else {
     result = register_point_to_plane(
         source, map_, prior.T_target_source, prior,
-        registration_config(std::min(prediction_reach_m(), config_.correspondence_cap_m)),
+        registration_config(std::min(reach_m, config_.correspondence_cap_m)),
         T_body_lidar_.translation());
   }
   update(result);
@@ -493,7 +494,7 @@ void LidarInertialOdometry::register_sweep(const Sweep& sweep, OdometryEstimate&
 }
 
 std::pair<RegistrationResult, double> LidarInertialOdometry::register_by_search(
-    const std::vector<Eigen::Vector3f>& source, const PosePrior& prior) const {
+    const std::vector<Eigen::Vector3f>& source, const PosePrior& prior, double reach_m) const {
   const double sigma_r = std::sqrt(P_.block<3, 3>(kRot, kRot).diagonal().maxCoeff());
   const double yaw = so3::yaw(x_.R);
   SearchWindow window;
@@ -501,7 +502,7 @@ std::pair<RegistrationResult, double> LidarInertialOdometry::register_by_search(
   window.y_m = x_.p.y();
   window.z_m = x_.p.z();
   window.yaw_rad = yaw;
-  window.half_xy_m = std::min(prediction_reach_m(), config_.search_max_xy_m);
+  window.half_xy_m = std::min(reach_m, config_.search_max_xy_m);
   window.half_yaw_rad =
       std::min(config_.correspondence_sigmas * sigma_r, config_.search_max_yaw_rad);
   const Eigen::Matrix3d R_level_body = so3::exp(Eigen::Vector3d(0, 0, -yaw)) * x_.R;

@@ -239,10 +239,11 @@ class LidarInertialOdometry {
   // How far the prediction may be off at a point correspondence_lever_m away, at
   // correspondence_sigmas.
   double prediction_reach_m() const;
-  // Registration from the starts of a correlative search around the prediction, and the
-  // share of the source's points within search_inlier_m of the map there.
+  // Registration from the starts of a correlative search around the prediction (within
+  // reach_m, prediction_reach_m()), and the share of the source's points within
+  // search_inlier_m of the map there.
   std::pair<RegistrationResult, double> register_by_search(
-      const std::vector<Eigen::Vector3f>& source, const PosePrior& prior) const;
+      const std::vector<Eigen::Vector3f>& source, const PosePrior& prior, double reach_m) const;
   void zero_velocity_update();
   void blend_correction();
   std::optional<Eigen::Isometry3d> pose_in_history(int64_t utime_us) const;
