@@ -64,6 +64,8 @@ TEST(So3, RollPitchYawComposeAsZyx) {
   EXPECT_TRUE(so3::from_rpy(rpy).isApprox(so3::exp(Eigen::Vector3d(0, 0, 0.3)) *
                                           so3::exp(Eigen::Vector3d(0, -0.2, 0)) *
                                           so3::exp(Eigen::Vector3d(0.1, 0, 0))));
+  EXPECT_TRUE(so3::to_rpy(so3::from_rpy(rpy)).isApprox(rpy, 1e-12));
+  EXPECT_TRUE(so3::to_rpy(R).isApprox(Eigen::Vector3d(0, 0, kPi / 2), 1e-12));
 }
 
 TEST(So3, NormalizeRepairsDrift) {

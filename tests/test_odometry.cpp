@@ -6,11 +6,13 @@
 #include "eval/trajectory_metrics.hpp"
 #include "math/se3.hpp"
 #include "math/so3.hpp"
+#include "odometry/extrinsic_check.hpp"
 #include "odometry/imu_propagation.hpp"
 #include "odometry/lidar_inertial_odometry.hpp"
 #include "odometry/scan_deskewer.hpp"
 #include "sim/imu_simulator.hpp"
 #include "sim/lidar_model.hpp"
+#include "sim/random.hpp"
 #include "sim/session_planner.hpp"
 #include "sim/session_simulator.hpp"
 #include "sim/simulation_config.hpp"
@@ -241,6 +243,18 @@ struct Replayed {
   eval::TrajectoryMetrics metrics(const Recording& r) const {
     return eval::evaluate_trajectory(r.ground_truth, trajectory(), eval::EvalConfig{});
   }
+  // Between a_s and b_s after the start (seconds) the estimate moves as the truth does,
+  // within 3 % of the distance (more than 30 m).
+  void expect_moves_as_truth(const Recording& r, double a_s, double b_s) const {
+    const Trajectory estimate = trajectory();
+    const double a = r.config.start_utime * 1e-6 + a_s, b = r.config.start_utime * 1e-6 + b_s;
+    const Eigen::Isometry3d moved_est = estimate.at(a, 0.5)->inverse() * *estimate.at(b, 0.5);
+    const Eigen::Isometry3d moved_truth =
+        r.ground_truth.at(a, 0.5)->inverse() * *r.ground_truth.at(b, 0.5);
+    EXPECT_GT(moved_truth.translation().norm(), 30.0);
+    EXPECT_LT((moved_est.translation() - moved_truth.translation()).norm(),
+              0.03 * moved_truth.translation().norm());
+  }
 };
 
 // Feeds the events (after `edit`, which may drop or change them) to the odometry.
@@ -352,18 +366,39 @@ TEST(Odometry, ASweepThatFitsNothingRestartsTheLocalMapAndSaysSo) {
   ASSERT_NE(lost, run.estimates.end());
   EXPECT_NEAR(lost->utime_us * 1e-6, t0 * 1e-6 + 22.1, 0.2) << lost->lost_reason;
   EXPECT_NE(lost->lost_reason.find("the local map restarts"), std::string::npos);
-  // From 30 s to 60 s after the start the estimate moves as the truth does.
-  const Trajectory estimate = run.trajectory();
-  const double a = t0 * 1e-6 + 30.0, b = t0 * 1e-6 + 60.0;
-  const Eigen::Isometry3d moved_est = estimate.at(a, 0.5)->inverse() * *estimate.at(b, 0.5);
-  const Eigen::Isometry3d moved_truth =
-      r.ground_truth.at(a, 0.5)->inverse() * *r.ground_truth.at(b, 0.5);
-  EXPECT_GT(moved_truth.translation().norm(), 30.0);
-  EXPECT_LT((moved_est.translation() - moved_truth.translation()).norm(),
-            0.03 * moved_truth.translation().norm());
+  run.expect_moves_as_truth(r, 30.0, 60.0);
   for (const OdometryEstimate& e : run.estimates) {
     ASSERT_TRUE(e.T_odom_body.matrix().allFinite());
   }
+}
+
+// An IMU that reports a 100 m/s^2 shove for a quarter second (a knock, a corrupt
+// driver) makes the velocity implausible: the estimate says it is lost and why, goes back to
+// the last trusted state, and tracks again.
+TEST(Odometry, AnImplausibleAccelerationResetsToTheLastTrustedState) {
+  const Recording& r = campus_drive();
+  LidarInertialOdometry odometry(config_for(r, true));
+  const int64_t t0 = r.config.start_utime;
+  const Replayed run = replay(r, odometry, [&](std::variant<ImuSample, LidarScan>& e) {
+    if (ImuSample* imu = std::get_if<ImuSample>(&e)) {
+      const double t = (imu->utime_us - t0) * 1e-6;
+      if (t > 30.0 && t < 30.25) {
+        imu->accel_mps2.x() += 100.0;
+      }
+    }
+    return true;
+  });
+  EXPECT_GE(odometry.counters().health_resets, 1);
+  const auto lost = std::find_if(run.estimates.begin(), run.estimates.end(),
+                                 [](const OdometryEstimate& e) { return !e.lost_reason.empty(); });
+  ASSERT_NE(lost, run.estimates.end());
+  EXPECT_NEAR(lost->utime_us * 1e-6, t0 * 1e-6 + 30.1, 0.3) << lost->lost_reason;
+  EXPECT_NE(lost->lost_reason.find("last trusted pose"), std::string::npos) << lost->lost_reason;
+  run.expect_moves_as_truth(r, 35.0, 60.0);
+  // A drive without a shove never trips the monitor.
+  LidarInertialOdometry clean(config_for(r, true));
+  replay(r, clean, [](std::variant<ImuSample, LidarScan>&) { return true; });
+  EXPECT_EQ(clean.counters().health_resets, 0);
 }
 
 // Half a second of IMU lost twice, repeated and reordered samples and sweeps, empty
@@ -481,6 +516,73 @@ TEST(Odometry, CorridorIsDegenerateButDoesNotDiverge) {
   EXPECT_GT(odometry.counters().degenerate_scans, 50);
   EXPECT_LT(m.ate_position_rmse_m, 0.02 * m.path_length_m);
   EXPECT_LT(m.rpe_translation_percent, 3.0);
+}
+
+// The LiDAR's motion as a LiDAR mounted otherwise than configured, or stamped by a clock
+// that runs late, would register it: the check names the rotation and the offset.
+struct MisconfiguredRig {
+  Eigen::Matrix3d R_BF = Eigen::Matrix3d::Identity();  // true mount vs the configured one
+  double clock_late_s = 0.0;
+};
+
+ExtrinsicEstimate check_drive(const MisconfiguredRig& rig) {
+  const sim::GeneratedWorld g = sim::generate_world(sim::WorldConfig{});
+  sim::SessionPlanConfig lengths;
+  lengths.a_length_m = 300.0;
+  const sim::SessionPlan plan = sim::plan_session("A", g.world, g.mapped_max_x_m, lengths, 3);
+  const sim::VehicleTrajectory trajectory(g.world, plan.waypoints, sim::MotionConfig{}, 3);
+  sim::ImuSimulator imu(trajectory, sim::ImuConfig{}, 5, 0);
+  ExtrinsicCheck check{ExtrinsicCheckConfig{}};
+  sim::Random noise(11);
+  double next_pose_s = 0.1;
+  while (imu.next_time_s() < 30.0) {
+    check.add_imu(imu.next());
+    if (imu.next_time_s() >= next_pose_s + rig.clock_late_s + 0.11) {
+      // Registration noise: 1 cm, 0.05 degrees.
+      const Eigen::Isometry3d T_local_B = trajectory.pose(next_pose_s);
+      const Eigen::Vector3d dp(noise.normal(0.0, 0.01), noise.normal(0.0, 0.01),
+                               noise.normal(0.0, 0.01));
+      const Eigen::Vector3d dr =
+          Eigen::Vector3d(noise.normal(0.0, 1.0), noise.normal(0.0, 1.0), noise.normal(0.0, 1.0)) *
+          (0.05 * M_PI / 180.0);
+      check.add_pose(
+          static_cast<int64_t>(std::llround((next_pose_s + rig.clock_late_s) * 1e6)),
+          se3::make(T_local_B.linear() * rig.R_BF * so3::exp(dr), T_local_B.translation() + dp));
+      next_pose_s += 0.1;
+    }
+  }
+  return check.estimate();
+}
+
+TEST(ExtrinsicCheck, NamesAYawedMountAndALateClock) {
+  const ExtrinsicEstimate right = check_drive({});
+  EXPECT_LT(right.rotation_error_deg, 1.0);
+  EXPECT_LT(std::abs(right.time_offset_error_s), 0.003);
+  EXPECT_NEAR(right.gravity_mps2, 9.81, 0.1);
+
+  const Eigen::Matrix3d yawed = so3::from_rpy(Eigen::Vector3d(0, 0, M_PI / 2));
+  const ExtrinsicEstimate yaw = check_drive({yawed, 0.0});
+  EXPECT_LT(so3::log(yaw.R_BF.transpose() * yawed).norm() * 180.0 / M_PI, 1.5);
+  EXPECT_LT(std::abs(yaw.time_offset_error_s), 0.003);
+
+  const Eigen::Matrix3d rolled = so3::from_rpy(Eigen::Vector3d(M_PI / 2, 0, 0.05));
+  const ExtrinsicEstimate roll = check_drive({rolled, 0.0});
+  EXPECT_LT(so3::log(roll.R_BF.transpose() * rolled).norm() * 180.0 / M_PI, 1.5);
+
+  const ExtrinsicEstimate late = check_drive({Eigen::Matrix3d::Identity(), 0.02});
+  EXPECT_NEAR(late.time_offset_error_s, 0.02, 0.003);
+  EXPECT_LT(late.rotation_error_deg, 1.0);
+}
+
+TEST(ExtrinsicCheck, StandingStillDecidesNothing) {
+  ExtrinsicCheckConfig config;
+  ExtrinsicCheck check{config};
+  // Standing still: nothing to check, whatever the time.
+  for (int64_t t = 0; t <= 40000000; t += 100000) {
+    check.add_pose(t, Eigen::Isometry3d::Identity());
+    EXPECT_FALSE(check.poll(Eigen::Matrix3d::Identity(), 0.0));
+  }
+  EXPECT_FALSE(check.done());
 }
 
 }  // namespace

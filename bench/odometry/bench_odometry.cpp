@@ -3,7 +3,9 @@
 // odometry as the process would receive it; the estimate is scored against ground truth.
 // With --imu on,off and --timing regular,irregular it runs each session with and without
 // the IMU, with every sweep and with sweeps dropped (gaps up to 5 s); --world-seed draws
-// another town. Prints a table and writes bench/results/odometry.json with, per run:
+// another town; --misconfig simulates a rig that differs from the configuration (the LiDAR
+// yawed 90 degrees, or its clock 20 ms late) and records what the extrinsic check said.
+// Prints a table and writes bench/results/odometry.json with, per run:
 // session, world, world_seed, lidar, imu, sweeps, rpe_percent, ate_m, ms_median, ms_p99,
 // peak_rss_mb, ...
 
@@ -64,6 +66,10 @@ struct Run {
   bool use_imu = true;
   int64_t world_seed = 1;
   bool irregular = false;
+  std::string misconfig = "none";
+  std::string extrinsic_check;  // the check's message, and when it came (s after the start)
+  double extrinsic_check_at_s = -1.0;
+  bool extrinsic_warned = false;
   double longest_gap_s = 0.0;
   int64_t sweeps_used = 0;
   eval::TrajectoryMetrics metrics;
@@ -85,7 +91,8 @@ struct Run {
 
 Run run_session(const std::string& world_kind, const std::string& lidar, const std::string& session,
                 bool use_imu, double length_scale, int trace, bool clean_imu,
-                const std::string& config_path, int64_t world_seed, bool irregular) {
+                const std::string& config_path, int64_t world_seed, bool irregular,
+                const std::string& misconfig) {
   sim::SimulationConfig sim_config;
   sim_config.world.kind = world_kind;
   sim_config.world.seed = world_seed;
@@ -100,7 +107,14 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
     sim_config.imu.accel_bias_random_walk = sim_config.imu.gyro_bias_random_walk = 0.0;
     sim_config.imu.initial_accel_bias_sigma_mps2 = sim_config.imu.initial_gyro_bias_sigma_rps = 0.0;
   }
-  const sim::SensorRig rig = sim_config.rig.rig();
+  // The rig as simulated; the odometry is configured with sim_config.rig.
+  sim::RigConfig simulated_rig = sim_config.rig;
+  if (misconfig == "extrinsic") {
+    simulated_rig.lidar_rpy_deg.z() += 90.0;
+  } else if (misconfig == "clock") {
+    simulated_rig.lidar_time_offset_s += 0.02;
+  }
+  const sim::SensorRig rig = simulated_rig.rig();
   const sim::SessionSimulator simulator(world, trajectory, sim::lidar_spec(lidar), rig,
                                         sim_config.imu, seed, recipe.start_utime);
 
@@ -119,6 +133,7 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   run.use_imu = use_imu;
   run.world_seed = world_seed;
   run.irregular = irregular;
+  run.misconfig = misconfig;
   SweepDropper dropper(irregular, seed + 7);
   std::vector<StampedPose> estimate;
   std::vector<double> cycle_ms;
@@ -127,6 +142,11 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   const auto consume = [&](const std::vector<OdometryEstimate>& out) {
     for (const OdometryEstimate& e : out) {
       estimate.push_back({e.utime_us * 1e-6, e.T_odom_body});
+      if (e.extrinsic_check) {
+        run.extrinsic_check = e.extrinsic_check->message;
+        run.extrinsic_check_at_s = (e.utime_us - recipe.start_utime) * 1e-6;
+        run.extrinsic_warned = e.extrinsic_check->warn;
+      }
       if (trace > 0 && estimate.size() % trace == 0) {
         const double t = e.utime_us * 1e-6 - recipe.start_utime * 1e-6;
         const Eigen::Isometry3d gt = trajectory.pose(t);
@@ -204,6 +224,9 @@ void print_row(const Run& r) {
       r.accel_bias_error, r.gyro_bias_error, r.stage_median_ms[0], r.stage_median_ms[1],
       r.stage_median_ms[2], r.stage_median_ms[3], r.stage_median_ms[4]);
   std::fflush(stdout);
+  std::fprintf(stderr, "%s %s %s rig %s: extrinsic check at %.1f s: %s\n", r.world.c_str(),
+               r.lidar.c_str(), r.session.c_str(), r.misconfig.c_str(), r.extrinsic_check_at_s,
+               r.extrinsic_check.empty() ? "(none)" : r.extrinsic_check.c_str());
 }
 }  // namespace
 
@@ -215,6 +238,7 @@ int main(int argc, char** argv) {
   double length_scale = 1.0;
   std::string imu = "on";
   std::string timing = "regular";
+  std::string misconfig = "none";
   int trace = 0;
   bool clean_imu = false;
   int world_seed = 1;
@@ -232,13 +256,20 @@ int main(int argc, char** argv) {
   cli.add_option("timing", &timing,
                  "regular, irregular (a third of the sweeps dropped at random and 1-5 s "
                  "every ~20 s) or both");
+  cli.add_option("misconfig", &misconfig,
+                 "none, extrinsic (LiDAR simulated yawed 90 deg on the IMU, configured as "
+                 "not) or clock (LiDAR clock 20 ms late, not configured); comma list");
   cli.add_option("trace", &trace, "print every N-th estimate against ground truth (0: none)");
   return run_program(cli, "bench_odometry", argc, argv, [&]() -> int {
     const std::vector<std::string> models =
         lidars == "all" ? sim::lidar_models() : split_list(lidars);
-    for (const std::string& mode : split_list(imu + "," + timing)) {
-      if (mode != "on" && mode != "off" && mode != "regular" && mode != "irregular") {
-        throw std::invalid_argument("--imu takes on/off, --timing regular/irregular: " + mode);
+    for (const std::string& mode : split_list(imu + "," + timing + "," + misconfig)) {
+      if (mode != "on" && mode != "off" && mode != "regular" && mode != "irregular" &&
+          mode != "none" && mode != "extrinsic" && mode != "clock") {
+        throw std::invalid_argument(
+            "--imu takes on/off, --timing regular/irregular, --misconfig "
+            "none/extrinsic/clock: " +
+            mode);
       }
     }
     std::vector<Run> runs;
@@ -259,10 +290,12 @@ int main(int argc, char** argv) {
         for (const std::string& model : models) {
           for (const std::string& imu_mode : split_list(imu)) {
             for (const std::string& timing_mode : split_list(timing)) {
-              runs.push_back(run_session(world, model, session, imu_mode == "on", length_scale,
-                                         trace, clean_imu, config_path, world_seed,
-                                         timing_mode == "irregular"));
-              print_row(runs.back());
+              for (const std::string& rig_mode : split_list(misconfig)) {
+                runs.push_back(run_session(world, model, session, imu_mode == "on", length_scale,
+                                           trace, clean_imu, config_path, world_seed,
+                                           timing_mode == "irregular", rig_mode));
+                print_row(runs.back());
+              }
             }
           }
         }
@@ -287,6 +320,14 @@ int main(int argc, char** argv) {
           .integer(r.world_seed)
           .key("sweeps")
           .string(r.irregular ? "irregular" : "all")
+          .key("misconfig")
+          .string(r.misconfig)
+          .key("extrinsic_check")
+          .string(r.extrinsic_check)
+          .key("extrinsic_check_at_s")
+          .number(r.extrinsic_check_at_s)
+          .key("extrinsic_warned")
+          .boolean(r.extrinsic_warned)
           .key("sweeps_used")
           .integer(r.sweeps_used)
           .key("longest_gap_s")

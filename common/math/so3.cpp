@@ -1,5 +1,6 @@
 #include "math/so3.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace liloc::so3 {
@@ -67,6 +68,11 @@ Eigen::Matrix3d from_rpy(const Eigen::Vector3d& rpy_rad) {
           Eigen::AngleAxisd(rpy_rad.y(), Eigen::Vector3d::UnitY()) *
           Eigen::AngleAxisd(rpy_rad.x(), Eigen::Vector3d::UnitX()))
       .toRotationMatrix();
+}
+
+Eigen::Vector3d to_rpy(const Eigen::Matrix3d& R) {
+  return {std::atan2(R(2, 1), R(2, 2)), std::asin(std::clamp(-R(2, 0), -1.0, 1.0)),
+          std::atan2(R(1, 0), R(0, 0))};
 }
 
 double yaw(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }

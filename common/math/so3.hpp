@@ -25,6 +25,9 @@ Eigen::Matrix3d right_jacobian_inverse(const Eigen::Vector3d& phi_rad);
 // R = Rz(yaw) Ry(pitch) Rx(roll): the roll-pitch-yaw convention of every config file.
 Eigen::Matrix3d from_rpy(const Eigen::Vector3d& rpy_rad);
 
+// Roll, pitch, yaw of R (the inverse of from_rpy; pitch in [-pi/2, pi/2]).
+Eigen::Vector3d to_rpy(const Eigen::Matrix3d& R);
+
 // Heading of R about the z axis (the yaw of from_rpy), in (-pi, pi].
 double yaw(const Eigen::Matrix3d& R);
 

@@ -87,6 +87,7 @@ void OdometryConfig::validate() const {
     throw std::invalid_argument("uncertain_iterations must be at least 1");
   }
   search.validate();
+  extrinsic_check.validate();
   if (!(correction_blend > 0 && correction_blend <= 1)) {
     throw std::invalid_argument("correction_blend must be in (0, 1]");
   }
@@ -109,6 +110,9 @@ void OdometryConfig::validate() const {
         {"search_inlier_m", search_inlier_m},
         {"search_min_inlier_ratio", search_min_inlier_ratio},
         {"lost_after_degenerate_s", lost_after_degenerate_s},
+        {"max_speed_mps", max_speed_mps},
+        {"max_accel_mps2", max_accel_mps2},
+        {"max_jump_m", max_jump_m},
         {"correction_max_step_m", correction_max_step_m},
         {"correction_max_step_rad", correction_max_step_rad},
         {"map_insert_translation_m", map_insert_translation_m},
@@ -132,6 +136,12 @@ Eigen::Isometry3d OdometryConfig::T_body_lidar() const {
 LidarInertialOdometry::LidarInertialOdometry(const OdometryConfig& config)
     : config_(config), T_body_lidar_(config.T_body_lidar()), map_(config.map) {
   config_.validate();
+  if (config_.use_imu && config_.extrinsic_check.enabled) {
+    extrinsic_check_.emplace(config_.extrinsic_check);
+    OdometryConfig lidar_only = config_;
+    lidar_only.use_imu = false;
+    lidar_only_ = std::make_unique<LidarInertialOdometry>(lidar_only);
+  }
 }
 
 const OdometryCounters& LidarInertialOdometry::counters() const {
@@ -144,7 +154,9 @@ void LidarInertialOdometry::add_imu(const ImuSample& sample) {
   if (!config_.use_imu) {
     return;
   }
-  imu_.add(sample);
+  if (imu_.add(sample) == ImuBuffer::AddResult::kAccepted && lidar_only_) {
+    extrinsic_check_->add_imu(sample);
+  }
   const size_t before = imu_.size();
   imu_.drop_before(imu_.last_utime() - to_us(config_.imu_buffer_s));
   counters_.imu_dropped_old += static_cast<int64_t>(before - imu_.size());
@@ -209,6 +221,19 @@ std::vector<OdometryEstimate> LidarInertialOdometry::run(bool force) {
       state_utime_ = start;
       P_.setZero();
     }
+    if (lidar_only_) {
+      lidar_only_->add_scan(scan);
+      // Deskewed by the constant-velocity model and once more with its own twist, a
+      // LiDAR-only pose lags its sweep's end by about a quarter sweep where the rate changes
+      // (half a sweep after the first pass, half of that after the second): the check gets
+      // the time the pose stands for.
+      const int64_t lag_us = to_us(scan.scan_period_s / 4.0);
+      for (const OdometryEstimate& e : lidar_only_->process()) {
+        if (e.registered && e.lost_reason.empty()) {
+          extrinsic_check_->add_pose(e.utime_us - lag_us, e.T_odom_body);
+        }
+      }
+    }
     try {
       out.push_back(process_scan(scan, start, end));
     } catch (const std::exception& e) {
@@ -264,6 +289,31 @@ bool LidarInertialOdometry::initialize(int64_t start_utime) {
 
 Eigen::Isometry3d LidarInertialOdometry::T_local_body() const { return se3::make(x_.R, x_.p); }
 
+MotionProfile LidarInertialOdometry::constant_twist_motion(const Eigen::Isometry3d& T_start,
+                                                           int64_t t0_us, int64_t t1_us,
+                                                           const Vector6d& twist) {
+  const double dt = (t1_us - t0_us) * 1e-6;
+  const Eigen::Vector3d omega = twist.tail<3>();
+  const Eigen::Vector3d v_local = T_start.linear() * twist.head<3>();
+  const Eigen::Matrix3d R_end = so3::normalize(T_start.linear() * so3::exp(omega * dt));
+  MotionProfile motion;
+  motion.add(
+      {t0_us, T_start.linear(), T_start.translation(), v_local, omega, Eigen::Vector3d::Zero()});
+  motion.add({t1_us, R_end, T_start.translation() + v_local * dt, R_end * twist.head<3>(), omega,
+              Eigen::Vector3d::Zero()});
+  return motion;
+}
+
+void LidarInertialOdometry::update_twist(const Sweep& sweep) {
+  // The velocity over the time since the previous sweep's end, which the prediction
+  // covered: not the sweep's own duration (scans spaced irregularly, dropped sweeps).
+  const Eigen::Isometry3d& T_prev = sweep.T_local_body_before;
+  const double dt = std::max((sweep.end_utime - sweep.utime_before) * 1e-6, 1e-3);
+  twist_.head<3>() = T_prev.linear().transpose() * (x_.p - T_prev.translation()) / dt;
+  twist_.tail<3>() = so3::log(T_prev.linear().transpose() * x_.R) / dt;
+  x_.v = x_.R * twist_.head<3>();
+}
+
 void LidarInertialOdometry::predict(int64_t end_utime, MotionProfile& motion) {
   if (config_.use_imu) {
     const PropagationStats stats =
@@ -272,20 +322,17 @@ void LidarInertialOdometry::predict(int64_t end_utime, MotionProfile& motion) {
     counters_.imu_gaps += stats.gaps;
     last_omega_ = motion.samples().back().omega_body;
   } else {
-    // Constant velocity in the body frame.
+    motion = constant_twist_motion(T_local_body(), state_utime_, end_utime, twist_);
+    const MotionSample& end = motion.samples().back();
     const double dt = (end_utime - state_utime_) * 1e-6;
-    const Eigen::Vector3d omega = twist_.tail<3>();
-    const Eigen::Vector3d v_local = x_.R * twist_.head<3>();
-    motion.add({state_utime_, x_.R, x_.p, v_local, omega, Eigen::Vector3d::Zero()});
-    x_.p += v_local * dt;
-    x_.R = so3::normalize(x_.R * so3::exp(omega * dt));
-    x_.v = x_.R * twist_.head<3>();
-    motion.add({end_utime, x_.R, x_.p, x_.v, omega, Eigen::Vector3d::Zero()});
+    x_.R = end.R;
+    x_.p = end.p;
+    x_.v = end.v;
     P_.block<3, 3>(kRot, kRot).diagonal().array() +=
         std::pow(config_.motion_rotation_sigma_rps * dt, 2);
     P_.block<3, 3>(kPos, kPos).diagonal().array() +=
         std::pow(config_.motion_translation_sigma_mps * dt, 2);
-    last_omega_ = omega;
+    last_omega_ = twist_.tail<3>();
   }
   state_utime_ = end_utime;
 }
@@ -412,6 +459,7 @@ LidarInertialOdometry::Sweep LidarInertialOdometry::preprocess(const LidarScan& 
 
 void LidarInertialOdometry::predict_and_deskew(Sweep& sweep, OdometryEstimate& est) {
   sweep.T_local_body_before = T_local_body();
+  sweep.velocity_before = x_.v;
   sweep.utime_before = state_utime_;
   predict(sweep.end_utime, sweep.motion);
   if (config_.use_imu && config_.zero_velocity_update &&
@@ -424,7 +472,7 @@ void LidarInertialOdometry::predict_and_deskew(Sweep& sweep, OdometryEstimate& e
       deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, sweep.motion, T_body_lidar_);
 }
 
-void LidarInertialOdometry::register_sweep(const Sweep& sweep, OdometryEstimate& est) {
+void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) {
   est.registered = true;
   if (map_.empty()) {
     return;  // the first sweep defines the map
@@ -437,7 +485,8 @@ void LidarInertialOdometry::register_sweep(const Sweep& sweep, OdometryEstimate&
       strided(sweep.points_body, config_.max_registration_points);
   RegistrationResult result;
   const double reach_m = prediction_reach_m();
-  if (reach_m > config_.search_beyond_m) {
+  const bool searched = reach_m > config_.search_beyond_m;
+  if (searched) {
     ++counters_.searched_scans;
     const auto [found, inlier_ratio] = register_by_search(source, prior, reach_m);
     if (inlier_ratio < config_.search_min_inlier_ratio) {
@@ -450,9 +499,7 @@ void LidarInertialOdometry::register_sweep(const Sweep& sweep, OdometryEstimate&
                     "the local map restarts at the predicted pose",
                     (sweep.end_utime - sweep.utime_before) * 1e-6, 100.0 * inlier_ratio);
       est.lost_reason = reason;
-      ++counters_.map_restarts;
-      map_ = VoxelHashMap(config_.map);
-      have_map_insert_ = false;
+      restart_local_map();
       return;
     }
     result = found;
@@ -462,15 +509,27 @@ void LidarInertialOdometry::register_sweep(const Sweep& sweep, OdometryEstimate&
         registration_config(std::min(reach_m, config_.correspondence_cap_m)),
         T_body_lidar_.translation());
   }
+  const Eigen::Vector3d p_predicted = x_.p;
   update(result);
   if (!config_.use_imu) {
-    // The velocity over the time since the previous sweep's end, which the prediction
-    // covered: not the sweep's own duration (scans spaced irregularly, dropped sweeps).
-    const Eigen::Isometry3d& T_prev = sweep.T_local_body_before;
-    const double dt = std::max((sweep.end_utime - sweep.utime_before) * 1e-6, 1e-3);
-    twist_.head<3>() = T_prev.linear().transpose() * (x_.p - T_prev.translation()) / dt;
-    twist_.tail<3>() = so3::log(T_prev.linear().transpose() * x_.R) / dt;
-    x_.v = x_.R * twist_.head<3>();
+    update_twist(sweep);
+    if (config_.redeskew_without_imu && !searched) {
+      // The sweep was deskewed with the previous sweep's twist: where the rate changes
+      // (a turn's start or end) that lags, and the registered pose sits toward the sweep's
+      // middle, half a sweep late. Deskewed again with this sweep's own twist, it ends
+      // where it should.
+      sweep.motion = constant_twist_motion(sweep.T_local_body_before, sweep.utime_before,
+                                           sweep.end_utime, twist_);
+      sweep.points_body =
+          deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, sweep.motion, T_body_lidar_);
+      result = register_point_to_plane(
+          strided(sweep.points_body, config_.max_registration_points), map_, T_local_body(), prior,
+          registration_config(config_.registration.max_correspondence_m),
+          T_body_lidar_.translation());
+      x_.R = result.T_target_source.linear();
+      x_.p = result.T_target_source.translation();
+      update_twist(sweep);
+    }
   }
   est.fitness_m = result.rms_residual_m;
   est.correspondences = result.correspondences;
@@ -491,6 +550,65 @@ void LidarInertialOdometry::register_sweep(const Sweep& sweep, OdometryEstimate&
                   degenerate_s);
     est.lost_reason = reason;
   }
+  if (const std::string unhealthy = health_problem(sweep, p_predicted); !unhealthy.empty()) {
+    est.lost_reason = unhealthy + ": the local map restarts at the last trusted pose";
+    ++counters_.health_resets;
+    reset_to(sweep);
+  }
+}
+
+std::string LidarInertialOdometry::health_problem(const Sweep& sweep,
+                                                  const Eigen::Vector3d& p_predicted) const {
+  char text[200];
+  const double dt = std::max((sweep.end_utime - sweep.utime_before) * 1e-6, 1e-3);
+  const double speed = x_.v.norm();
+  const double accel = (x_.v - sweep.velocity_before).norm() / dt;
+  const double jump = (x_.p - p_predicted).norm();
+  if (speed > config_.max_speed_mps) {
+    std::snprintf(text, sizeof(text), "speed %.1f m/s beyond max_speed_mps %.1f", speed,
+                  config_.max_speed_mps);
+  } else if (config_.use_imu && accel > config_.max_accel_mps2) {
+    // (Without an IMU the velocity is a difference of poses 0.1 s apart, too noisy for this.)
+    std::snprintf(text, sizeof(text),
+                  "the velocity changed by %.1f m/s in %.2f s (%.0f m/s^2, beyond "
+                  "max_accel_mps2 %.0f)",
+                  accel * dt, dt, accel, config_.max_accel_mps2);
+  } else if (config_.use_imu && jump > config_.max_jump_m) {
+    // Without an IMU the search after a pause may move the pose far: that is its purpose.
+    std::snprintf(text, sizeof(text),
+                  "the registration moved the pose %.1f m from the IMU's prediction (beyond "
+                  "max_jump_m %.1f)",
+                  jump, config_.max_jump_m);
+  } else {
+    return {};
+  }
+  return text;
+}
+
+void LidarInertialOdometry::reset_to(const Sweep& sweep) {
+  // Back to the previous sweep's pose and velocity, with the uncertainty of a restart:
+  // the pose, rotation and velocity forget their correlations; biases and gravity keep
+  // theirs.
+  x_.R = sweep.T_local_body_before.linear();
+  x_.p = sweep.T_local_body_before.translation();
+  x_.v = sweep.velocity_before;
+  twist_.setZero();
+  twist_.head<3>() = x_.R.transpose() * x_.v;
+  StateVector sigma = P_.diagonal().cwiseSqrt();
+  sigma.segment<3>(kRot).setConstant(0.05);
+  sigma.segment<3>(kPos).setConstant(1.0);
+  sigma.segment<3>(kVel).setConstant(2.0);
+  const StateMatrix kept = P_;
+  P_ = sigma.cwiseAbs2().asDiagonal();
+  P_.bottomRightCorner<kStateDim - kBg, kStateDim - kBg>() =
+      kept.bottomRightCorner<kStateDim - kBg, kStateDim - kBg>();
+  restart_local_map();
+}
+
+void LidarInertialOdometry::restart_local_map() {
+  ++counters_.map_restarts;
+  map_ = VoxelHashMap(config_.map);
+  have_map_insert_ = false;
 }
 
 std::pair<RegistrationResult, double> LidarInertialOdometry::register_by_search(
@@ -602,6 +720,13 @@ void LidarInertialOdometry::finish_estimate(OdometryEstimate& est) {
   est.accel_bias = x_.ba;
   est.covariance = P_.topLeftCorner<6, 6>();
   counters_.lost_scans += est.lost_reason.empty() ? 0 : 1;
+  if (lidar_only_) {
+    est.extrinsic_check =
+        extrinsic_check_->poll(T_body_lidar_.linear(), config_.lidar_time_offset_s);
+    if (extrinsic_check_->done()) {
+      lidar_only_.reset();
+    }
+  }
   if (est.keyframe) {
     Keyframe& kf = *est.keyframe;
     kf.utime_us = end_utime;

@@ -11,6 +11,7 @@
 
 #include <deque>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -106,6 +107,16 @@ struct OdometryConfig {
   // Without an IMU, a degenerate streak this long makes the estimate lost (its reason
   // says so): along the weak direction it is the constant-velocity model's guess.
   double lost_after_degenerate_s = 3.0;
+  // Without an IMU, each sweep is deskewed and registered a second time with its own
+  // twist (the first pass used the previous sweep's).
+  bool redeskew_without_imu = true;
+  // Health: an estimate faster than max_speed_mps or, with the IMU, whose velocity changed
+  // faster than max_accel_mps2 over a sweep or that registration moved more than
+  // max_jump_m from the prediction is not trusted: lost, with the reason, back to the
+  // previous sweep's pose and velocity, and the local map restarts.
+  double max_speed_mps = 40.0;
+  double max_accel_mps2 = 20.0;
+  double max_jump_m = 2.0;
   CorrelativeSearchConfig search;
   // Pose corrections are blended in: this fraction of what remains per sweep, at most
   // the step limits, so that the output never jumps.
@@ -113,6 +124,9 @@ struct OdometryConfig {
   double correction_max_step_m = 0.02;
   double correction_max_step_rad = 0.002;
   double history_s = 120.0;  // how far back a correction may refer
+  // With the IMU: the configured LiDAR rotation and clock offset checked against the
+  // motion of the first seconds (OdometryEstimate::extrinsic_check).
+  ExtrinsicCheckConfig extrinsic_check;
 
   template <class V>
   void visit_fields(V& v) {
@@ -157,11 +171,16 @@ struct OdometryConfig {
     v("search_inlier_m", search_inlier_m);
     v("search_min_inlier_ratio", search_min_inlier_ratio);
     v("lost_after_degenerate_s", lost_after_degenerate_s);
+    v("redeskew_without_imu", redeskew_without_imu);
+    v("max_speed_mps", max_speed_mps);
+    v("max_accel_mps2", max_accel_mps2);
+    v("max_jump_m", max_jump_m);
     v("search", search);
     v("correction_blend", correction_blend);
     v("correction_max_step_m", correction_max_step_m);
     v("correction_max_step_rad", correction_max_step_rad);
     v("history_s", history_s);
+    v("extrinsic_check", extrinsic_check);
   }
   void validate() const;
   Eigen::Isometry3d T_body_lidar() const;
@@ -212,6 +231,7 @@ class LidarInertialOdometry {
     std::vector<Eigen::Vector3f> points_body;  // sparse, deskewed to the sweep's end
     // The state before this sweep's prediction: the previous sweep's end.
     Eigen::Isometry3d T_local_body_before = Eigen::Isometry3d::Identity();
+    Eigen::Vector3d velocity_before = Eigen::Vector3d::Zero();
     int64_t utime_before = 0;
   };
 
@@ -223,12 +243,17 @@ class LidarInertialOdometry {
   OdometryEstimate process_scan(const LidarScan& scan, int64_t start_utime, int64_t end_utime);
   Sweep preprocess(const LidarScan& scan, int64_t start_utime, int64_t end_utime) const;
   void predict_and_deskew(Sweep& sweep, OdometryEstimate& est);
-  void register_sweep(const Sweep& sweep, OdometryEstimate& est);
+  void register_sweep(Sweep& sweep, OdometryEstimate& est);
   void update_map(const Sweep& sweep);
   std::optional<Keyframe> make_keyframe(const Sweep& sweep);
   void finish_estimate(OdometryEstimate& est);
 
   void predict(int64_t end_utime, MotionProfile& motion);
+  // The body's motion at a constant body-frame twist (linear m/s, angular rad/s).
+  static MotionProfile constant_twist_motion(const Eigen::Isometry3d& T_start, int64_t t0_us,
+                                             int64_t t1_us, const Vector6d& twist);
+  // Without an IMU: the twist from the previous sweep's end to the current state.
+  void update_twist(const Sweep& sweep);
   void update(const RegistrationResult& result);
   // True if the IMU samples of (t0, t1] show a standing vehicle.
   bool standing_still(int64_t t0_us, int64_t t1_us) const;
@@ -244,6 +269,12 @@ class LidarInertialOdometry {
   // search_inlier_m of the map there.
   std::pair<RegistrationResult, double> register_by_search(
       const std::vector<Eigen::Vector3f>& source, const PosePrior& prior, double reach_m) const;
+  // Why the state after this sweep's update is not trusted (empty if it is); the pose
+  // before the update was p_predicted.
+  std::string health_problem(const Sweep& sweep, const Eigen::Vector3d& p_predicted) const;
+  // Back to the sweep's starting state (health_problem), and a new local map.
+  void reset_to(const Sweep& sweep);
+  void restart_local_map();
   void zero_velocity_update();
   void blend_correction();
   std::optional<Eigen::Isometry3d> pose_in_history(int64_t utime_us) const;
@@ -254,6 +285,11 @@ class LidarInertialOdometry {
   ImuBuffer imu_;
   std::deque<LidarScan> scans_;
   VoxelHashMap map_;
+  // While the extrinsic check gathers motion: a LiDAR-only twin whose poses owe nothing to
+  // the IMU (the filter's own poses follow the IMU wherever registration is weak, and so
+  // would agree with a wrong extrinsic).
+  std::optional<ExtrinsicCheck> extrinsic_check_;
+  std::unique_ptr<LidarInertialOdometry> lidar_only_;
   mutable OdometryCounters counters_;
 
   bool initialized_ = false;

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "math/se3.hpp"
+#include "odometry/extrinsic_check.hpp"
 #include "pointcloud/point_cloud.hpp"
 
 namespace liloc {
@@ -56,6 +57,9 @@ struct OdometryEstimate {
   // the pose is the prediction and the local map restarted from it; or a long degenerate
   // streak without an IMU). STATUS.odometry reports it as MODE_LOST.
   std::string lost_reason;
+  // Set on the one estimate where the LiDAR-IMU extrinsic check decided (its message
+  // says what it found; `warn` when the configuration looks wrong).
+  std::optional<ExtrinsicEstimate> extrinsic_check;
   OdometryTimings timings;
   std::optional<Keyframe> keyframe;
 };
@@ -79,7 +83,8 @@ struct OdometryCounters {
   int64_t imu_gaps = 0;            // IMU silences longer than max_sample_gap_s
   int64_t degenerate_scans = 0;
   int64_t searched_scans = 0;    // prediction beyond registration's reach: searched first
-  int64_t map_restarts = 0;      // a sweep that could not be placed restarted the local map
+  int64_t map_restarts = 0;      // the local map restarted (a sweep placed nowhere, a reset)
+  int64_t health_resets = 0;     // implausible speed, acceleration or jump: state reset
   int64_t lost_scans = 0;        // estimates with a lost_reason
   int64_t standstill_scans = 0;  // zero-velocity updates applied
   int64_t keyframes = 0;

@@ -130,10 +130,14 @@ bool OdometryNode::finish() {
   spdlog::info(
       "done: {} sweeps processed ({} received, {} out of order, {} too small, {} "
       "before init, {} without IMU, {} failed), {} keyframes, {} degenerate, {} searched after "
-      "a pause, {} lost ({} local-map restarts); {} messages refused at the door, {} restarts",
+      "a pause, {} lost ({} local-map restarts, {} health resets); {} messages refused at the "
+      "door, {} restarts",
       c.scans_processed, c.scans_received, c.scans_out_of_order, c.scans_too_small,
       c.scans_before_init, c.scans_without_imu, c.scans_failed, c.keyframes, c.degenerate_scans,
-      c.searched_scans, c.lost_scans, c.map_restarts, rejected_total_, restarts_);
+      c.searched_scans, c.lost_scans, c.map_restarts, c.health_resets, rejected_total_, restarts_);
+  if (!extrinsic_check_.empty()) {
+    spdlog::info("{}", extrinsic_check_);
+  }
   return true;
 }
 
@@ -150,6 +154,16 @@ void OdometryNode::publish(const std::vector<OdometryEstimate>& estimates) {
       const int64_t lost = odometry_->counters().lost_scans;
       if (should_log(lost)) {  // the summary has the count
         spdlog::warn("lost ({} sweeps so far): {}", lost, e.lost_reason);
+      }
+    }
+    if (e.extrinsic_check) {
+      extrinsic_check_ = e.extrinsic_check->message;
+      extrinsic_warned_ = e.extrinsic_check->warn;
+      if (e.extrinsic_check->warn) {
+        last_problem_ = extrinsic_check_;
+        spdlog::warn("{}", extrinsic_check_);
+      } else {
+        spdlog::info("{}", extrinsic_check_);
       }
     }
     publish_status(&e, e.utime_us);
@@ -203,6 +217,7 @@ void OdometryNode::publish_status(const OdometryEstimate* e, int64_t utime_us) {
                      {"degenerate_scans", c.degenerate_scans},
                      {"searched_scans", c.searched_scans},
                      {"map_restarts", c.map_restarts},
+                     {"health_resets", c.health_resets},
                      {"lost_scans", c.lost_scans},
                      {"standstill_scans", c.standstill_scans},
                      {"keyframes", c.keyframes},
@@ -228,6 +243,8 @@ void OdometryNode::publish_status(const OdometryEstimate* e, int64_t utime_us) {
     report.message = "sweep too small to register: pose from the motion model";
   } else if (e->degenerate) {
     report.message = "registration degenerate: the motion model holds the weak direction";
+  } else if (extrinsic_warned_) {
+    report.message = extrinsic_check_;  // until the configuration is fixed
   }
   liloc::status_t status = bridge::to_msg(report, utime_us, frames_.robot_id);
   bus_.publish(status_channel_, status);

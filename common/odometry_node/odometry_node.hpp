@@ -80,7 +80,9 @@ class OdometryNode final : public node::Node {
   int64_t restarts_ = 0;
   std::map<std::string, int64_t> rejected_;
   int64_t rejected_total_ = 0;
-  std::string last_problem_;  // the latest refusal, restart or failure, for the status
+  std::string last_problem_;     // the latest refusal, restart or failure, for the status
+  std::string extrinsic_check_;  // what the LiDAR-IMU extrinsic check found, once decided
+  bool extrinsic_warned_ = false;
   int64_t last_status_wall_us_ = 0;
   int64_t last_data_utime_us_ = 0;
 };
