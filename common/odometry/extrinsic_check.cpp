@@ -9,11 +9,20 @@
 
 #include "math/se3.hpp"
 #include "math/so3.hpp"
+#include "odometry/require_positive.hpp"
 
 namespace liloc {
 namespace {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
+
+// The index of the last sample at or before t_us (the first one for earlier times).
+size_t sample_at(const std::vector<ImuSample>& imu, double t_us) {
+  const auto it = std::upper_bound(imu.begin(), imu.end(), t_us, [](double t, const ImuSample& s) {
+    return t < static_cast<double>(s.utime_us);
+  });
+  return static_cast<size_t>(std::max<std::ptrdiff_t>(it - imu.begin() - 1, 0));
+}
 
 // The gyro's integral over time, the samples held until the next one.
 class GyroIntegral {
@@ -30,10 +39,7 @@ class GyroIntegral {
   }
   // Integral from the first sample to t (IMU time, us), t within the samples.
   Eigen::Vector3d at(double t_us) const {
-    const auto it = std::upper_bound(
-        imu_.begin(), imu_.end(), t_us,
-        [](double t, const ImuSample& s) { return t < static_cast<double>(s.utime_us); });
-    const size_t i = static_cast<size_t>(std::max<std::ptrdiff_t>(it - imu_.begin() - 1, 0));
+    const size_t i = sample_at(imu_, t_us);
     return prefix_[i] + imu_[i].gyro_rps * ((t_us - imu_[i].utime_us) * 1e-6);
   }
 
@@ -196,23 +202,19 @@ class Problem {
 }  // namespace
 
 void ExtrinsicCheckConfig::validate() const {
-  for (const auto& [name, value] : {std::pair<const char*, double>{"min_speed_mps", min_speed_mps},
-                                    {"min_turn_rps", min_turn_rps},
-                                    {"first_check_s", first_check_s},
-                                    {"check_every_s", check_every_s},
-                                    {"max_window_s", max_window_s},
-                                    {"interval_s", interval_s},
-                                    {"max_offset_s", max_offset_s},
-                                    {"offset_step_s", offset_step_s},
-                                    {"warn_rotation_deg", warn_rotation_deg},
-                                    {"warn_offset_s", warn_offset_s},
-                                    {"gyro_sigma_rps", gyro_sigma_rps},
-                                    {"velocity_sigma_mps", velocity_sigma_mps}}) {
-    if (!(value > 0.0)) {
-      throw std::invalid_argument(std::string("extrinsic_check.") + name +
-                                  " must be positive, got " + std::to_string(value));
-    }
-  }
+  require_positive({{"min_speed_mps", min_speed_mps},
+                    {"min_turn_rps", min_turn_rps},
+                    {"first_check_s", first_check_s},
+                    {"check_every_s", check_every_s},
+                    {"max_window_s", max_window_s},
+                    {"interval_s", interval_s},
+                    {"max_offset_s", max_offset_s},
+                    {"offset_step_s", offset_step_s},
+                    {"warn_rotation_deg", warn_rotation_deg},
+                    {"warn_offset_s", warn_offset_s},
+                    {"gyro_sigma_rps", gyro_sigma_rps},
+                    {"velocity_sigma_mps", velocity_sigma_mps}},
+                   "extrinsic_check.");
   if (!(max_window_s >= first_check_s) || !(offset_step_s < max_offset_s)) {
     throw std::invalid_argument(
         "extrinsic_check: need first_check_s <= max_window_s and offset_step_s < max_offset_s");
@@ -336,7 +338,8 @@ ExtrinsicEstimate ExtrinsicCheck::estimate() const {
         continue;
       }
       // Specific force samples over the interval in IMU time, each held until the next.
-      for (size_t i = 0; i + 1 < imu_.size(); ++i) {
+      for (size_t i = sample_at(imu_, pair.t0_us - offset_us);
+           i + 1 < imu_.size() && imu_[i].utime_us < pair.t1_us - offset_us; ++i) {
         const double s0 = std::max<double>(imu_[i].utime_us, pair.t0_us - offset_us);
         const double s1 = std::min<double>(imu_[i + 1].utime_us, pair.t1_us - offset_us);
         if (s1 <= s0) {
@@ -371,32 +374,26 @@ ExtrinsicEstimate ExtrinsicCheck::estimate() const {
   // The rotation first (a clock offset of tens of ms hardly moves it), then the offset by
   // the gyro residual with that rotation, then the rotation again at the offset.
   Fit fit = best_fit(0.0, axis_rotations());
-  double best_offset_us = 0.0;
-  double best_cost = std::numeric_limits<double>::infinity();
+  const double step_us = config_.offset_step_s * 1e6;
   const int steps = static_cast<int>(std::round(config_.max_offset_s / config_.offset_step_s));
-  std::vector<double> costs;
+  std::vector<double> costs;  // at offsets (i - steps) * step_us
   for (int i = -steps; i <= steps; ++i) {
-    const double offset_us = i * config_.offset_step_s * 1e6;
-    const std::vector<Eigen::Vector3d> w = omega_I(offset_us);
+    const std::vector<Eigen::Vector3d> w = omega_I(i * step_us);
     double cost = 0.0;
     for (size_t k = 0; k < rates.size(); ++k) {
       cost += (w[k] - fit.bg - fit.R * rates[k].omega_F).squaredNorm();
     }
     costs.push_back(cost);
-    if (cost < best_cost) {
-      best_cost = cost;
-      best_offset_us = offset_us;
-    }
   }
-  // Parabola through the best step and its neighbours.
   const size_t i_best =
-      static_cast<size_t>(std::round(best_offset_us / (config_.offset_step_s * 1e6))) +
-      static_cast<size_t>(steps);
+      static_cast<size_t>(std::min_element(costs.begin(), costs.end()) - costs.begin());
+  double best_offset_us = (static_cast<double>(i_best) - steps) * step_us;
+  // Parabola through the best step and its neighbours.
   if (i_best > 0 && i_best + 1 < costs.size()) {
     const double c0 = costs[i_best - 1], c1 = costs[i_best], c2 = costs[i_best + 1];
     const double curvature = c0 - 2.0 * c1 + c2;
     if (curvature > 0) {
-      best_offset_us += 0.5 * (c0 - c2) / curvature * config_.offset_step_s * 1e6;
+      best_offset_us += 0.5 * (c0 - c2) / curvature * step_us;
     }
   }
   fit = best_fit(best_offset_us, {fit.R});

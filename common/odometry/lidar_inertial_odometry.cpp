@@ -10,6 +10,7 @@
 
 #include "math/so3.hpp"
 #include "math/stopwatch.hpp"
+#include "odometry/require_positive.hpp"
 #include "odometry/scan_deskewer.hpp"
 #include "pointcloud/voxel_grid.hpp"
 #include "pointcloud/voxel_index_table.hpp"
@@ -91,37 +92,31 @@ void OdometryConfig::validate() const {
   if (!(correction_blend > 0 && correction_blend <= 1)) {
     throw std::invalid_argument("correction_blend must be in (0, 1]");
   }
-  for (const auto& [name, value] :
-       {std::pair<const char*, double>{"stationary_accel_std_mps2", stationary_accel_std_mps2},
-        {"stationary_gyro_std_rps", stationary_gyro_std_rps},
-        {"standstill_max_speed_mps", standstill_max_speed_mps},
-        {"standstill_gyro_rps", standstill_gyro_rps},
-        {"standstill_accel_std_mps2", standstill_accel_std_mps2},
-        {"standstill_velocity_sigma_mps", standstill_velocity_sigma_mps},
-        {"motion_translation_sigma_mps", motion_translation_sigma_mps},
-        {"motion_rotation_sigma_rps", motion_rotation_sigma_rps},
-        {"correspondence_sigmas", correspondence_sigmas},
-        {"correspondence_lever_m", correspondence_lever_m},
-        {"correspondence_cap_m", correspondence_cap_m},
-        {"kernel_fraction", kernel_fraction},
-        {"search_beyond_m", search_beyond_m},
-        {"search_max_xy_m", search_max_xy_m},
-        {"search_max_yaw_rad", search_max_yaw_rad},
-        {"search_inlier_m", search_inlier_m},
-        {"search_min_inlier_ratio", search_min_inlier_ratio},
-        {"lost_after_degenerate_s", lost_after_degenerate_s},
-        {"max_speed_mps", max_speed_mps},
-        {"max_accel_mps2", max_accel_mps2},
-        {"max_jump_m", max_jump_m},
-        {"correction_max_step_m", correction_max_step_m},
-        {"correction_max_step_rad", correction_max_step_rad},
-        {"map_insert_translation_m", map_insert_translation_m},
-        {"map_insert_rotation_rad", map_insert_rotation_rad}}) {
-    if (!(value > 0.0)) {
-      throw std::invalid_argument(std::string(name) + " must be positive, got " +
-                                  std::to_string(value));
-    }
-  }
+  require_positive({{"stationary_accel_std_mps2", stationary_accel_std_mps2},
+                    {"stationary_gyro_std_rps", stationary_gyro_std_rps},
+                    {"standstill_max_speed_mps", standstill_max_speed_mps},
+                    {"standstill_gyro_rps", standstill_gyro_rps},
+                    {"standstill_accel_std_mps2", standstill_accel_std_mps2},
+                    {"standstill_velocity_sigma_mps", standstill_velocity_sigma_mps},
+                    {"motion_translation_sigma_mps", motion_translation_sigma_mps},
+                    {"motion_rotation_sigma_rps", motion_rotation_sigma_rps},
+                    {"correspondence_sigmas", correspondence_sigmas},
+                    {"correspondence_lever_m", correspondence_lever_m},
+                    {"correspondence_cap_m", correspondence_cap_m},
+                    {"kernel_fraction", kernel_fraction},
+                    {"search_beyond_m", search_beyond_m},
+                    {"search_max_xy_m", search_max_xy_m},
+                    {"search_max_yaw_rad", search_max_yaw_rad},
+                    {"search_inlier_m", search_inlier_m},
+                    {"search_min_inlier_ratio", search_min_inlier_ratio},
+                    {"lost_after_degenerate_s", lost_after_degenerate_s},
+                    {"max_speed_mps", max_speed_mps},
+                    {"max_accel_mps2", max_accel_mps2},
+                    {"max_jump_m", max_jump_m},
+                    {"correction_max_step_m", correction_max_step_m},
+                    {"correction_max_step_rad", correction_max_step_rad},
+                    {"map_insert_translation_m", map_insert_translation_m},
+                    {"map_insert_rotation_rad", map_insert_rotation_rad}});
   if (!lidar_translation_m.allFinite() || !lidar_rpy_deg.allFinite() ||
       !(std::abs(lidar_time_offset_s) <= 1.0)) {
     throw std::invalid_argument(
