@@ -9,8 +9,12 @@
 // rigid transform that fits the map's keyframes to session A's truth, so the map's own
 // error counts.
 //
+// The modes are compared with the truth's own: where the truth's Eq. 11 overlap with the
+// map says RLM, and, along the path, how far each of the truth's switches (leaving or
+// re-entering the mapped area) is from the estimate's nearest switch the same way.
+//
 //   bench_efg --data DIR/campus --maps DIR/map_%s [--lidars hdl32] [--sessions B,C,D]
-//             [--variants full,direct,...]
+//             [--variants full,direct,...] [--plots DIR]
 
 #include <spdlog/spdlog.h>
 
@@ -18,6 +22,8 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
+#include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -28,6 +34,7 @@
 #include "eval/json_writer.hpp"
 #include "eval/latency_stats.hpp"
 #include "eval/trajectory_metrics.hpp"
+#include "eval/trajectory_plot.hpp"
 #include "initializer/map_directory.hpp"
 #include "initializer/pose_initializer.hpp"
 #include "math/so3.hpp"
@@ -51,7 +58,47 @@ struct Row {
   double jfgo_ms_median = 0, latency_ms_median = 0, latency_ms_p99 = 0, max_jump_m = 0;
   int keyframes = 0;
   std::string init;  // how the session started
+  // Mode switches: the truth's, the estimate's, and the truth's that the estimate did not
+  // make the same way; the largest distance along the path (m) of a matched one.
+  int switches_truth = 0, switches = 0, switches_missed = 0;
+  double switch_error_m_max = 0;
+  std::vector<StampedPose> estimate, truth;  // map frame, for the plot
+  std::vector<eval::ModeSample> modes;
 };
+
+// Compares the estimate's mode switches with the truth's along the path.
+void score_switches(const std::vector<double>& path_m, const std::vector<bool>& rlm,
+                    const std::vector<bool>& rlm_truth, Row& row) {
+  struct Switch {
+    double at_m;
+    bool enters;
+  };
+  const auto switches_of = [&](const std::vector<bool>& mode) {
+    std::vector<Switch> out;
+    for (size_t k = 1; k < mode.size(); ++k) {
+      if (mode[k] != mode[k - 1]) {
+        out.push_back({path_m[k], mode[k]});
+      }
+    }
+    return out;
+  };
+  const std::vector<Switch> truth = switches_of(rlm_truth), estimate = switches_of(rlm);
+  row.switches_truth = static_cast<int>(truth.size());
+  row.switches = static_cast<int>(estimate.size());
+  for (const Switch& t : truth) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Switch& e : estimate) {
+      if (e.enters == t.enters) {
+        nearest = std::min(nearest, std::abs(e.at_m - t.at_m));
+      }
+    }
+    if (std::isfinite(nearest)) {
+      row.switch_error_m_max = std::max(row.switch_error_m_max, nearest);
+    } else {
+      ++row.switches_missed;
+    }
+  }
+}
 
 // The variant's localizer config from the full method's.
 LocalizerConfig variant_config(LocalizerConfig c, const std::string& variant) {
@@ -154,9 +201,10 @@ Row run_case(const OpenedMap& map, const Eigen::Isometry3d& T_map_world, const S
     return in;
   };
   localizer.start(to_localizer(first), init->best->T_map_body, init->best->covariance);
-  std::vector<StampedPose> estimate, truth;
-  std::vector<double> jfgo_ms, latency_ms;
-  int rlm = 0, rlm_truth = 0;
+  std::vector<StampedPose>& estimate = row.estimate;
+  std::vector<StampedPose>& truth = row.truth;
+  std::vector<double> jfgo_ms, latency_ms, path_m;
+  std::vector<bool> rlm, rlm_truth;
   Eigen::Isometry3d previous_T_map_odom = localizer.T_map_odom();
   for (size_t k = first + 1; k < session.keyframes.size(); ++k) {
     const LocalizerOutput out = localizer.add(to_localizer(k));
@@ -165,16 +213,21 @@ Row run_case(const OpenedMap& map, const Eigen::Isometry3d& T_map_world, const S
     if (!T_truth) {
       continue;
     }
+    path_m.push_back(truth.empty()
+                         ? 0.0
+                         : path_m.back() +
+                               (T_truth->translation() - truth.back().T.translation()).norm());
     estimate.push_back({kf.utime_us * 1e-6, out.T_map_body});
     truth.push_back({kf.utime_us * 1e-6, *T_truth});
-    rlm += out.mode == LocalizationMode::kRelocalization;
+    rlm.push_back(out.mode == LocalizationMode::kRelocalization);
+    row.modes.push_back({kf.utime_us * 1e-6, rlm.back() ? eval::kModeRlm : eval::kModeIlm});
     // The truth's own overlap (Eq. 11) with the map: where RLM is right.
     double overlap = 0.0;
     for (const KdTree::Hit& hit : map.index.submaps().nearest_submaps(T_truth->translation(), 3)) {
       overlap = std::max(overlap, overlap_ratio(T_truth->translation(), full.overlap_half_side_m,
                                                 map.index.submaps().submap(hit.id)->bounds));
     }
-    rlm_truth += overlap >= full.overlap_threshold;
+    rlm_truth.push_back(overlap >= full.overlap_threshold);
     jfgo_ms.push_back(out.graph.solve_ms);
     latency_ms.push_back(out.total_ms);
     const Eigen::Isometry3d T_map_odom = localizer.T_map_odom();
@@ -196,8 +249,12 @@ Row run_case(const OpenedMap& map, const Eigen::Isometry3d& T_map_world, const S
   row.xyz_rpy = m.ate_full_rmse;
   row.rot_deg = m.rotation_rmse_deg;
   row.keyframes = static_cast<int>(estimate.size());
-  row.rlm_share = estimate.empty() ? 0.0 : static_cast<double>(rlm) / estimate.size();
-  row.rlm_share_truth = estimate.empty() ? 0.0 : static_cast<double>(rlm_truth) / estimate.size();
+  const auto share = [](const std::vector<bool>& v) {
+    return v.empty() ? 0.0 : static_cast<double>(std::count(v.begin(), v.end(), true)) / v.size();
+  };
+  row.rlm_share = share(rlm);
+  row.rlm_share_truth = share(rlm_truth);
+  score_switches(path_m, rlm, rlm_truth, row);
   row.jfgo_ms_median = eval::quantile(jfgo_ms, 0.5);
   row.latency_ms_median = eval::quantile(latency_ms, 0.5);
   row.latency_ms_p99 = eval::quantile(latency_ms, 0.99);
@@ -212,6 +269,7 @@ int main(int argc, char** argv) {
   std::string variants =
       "full,direct,scan_to_map_only,ilm_only,no_mode_switch,unweighted,no_marginalization";
   std::string config_path = "config/liloc.yaml", json_path = "bench/results/efg.json";
+  std::string plots_dir;
   CommandLine cli("bench_efg",
                   "The joint optimizer on simulated sessions (paper Tables II-III form).");
   cli.add_option("data", &data, "simulated sessions: <data>/<lidar>/<session>/");
@@ -221,6 +279,8 @@ int main(int argc, char** argv) {
   cli.add_option("variants", &variants, "full and ablations, comma list");
   cli.add_option("config", &config_path, "system config");
   cli.add_option("json", &json_path, "result file ('' for none)");
+  cli.add_option("plots", &plots_dir,
+                 "write <dir>/efg_<lidar>_<session>_<variant>.png, the estimate coloured by mode");
   return run_program(cli, "bench_efg", argc, argv, [&]() -> int {
     const SystemConfig config = load_config<SystemConfig>(config_path);
     const std::vector<std::string> lidar_list =
@@ -240,6 +300,11 @@ int main(int argc, char** argv) {
         }
       }
       const Eigen::Isometry3d T_map_world = eval::fit_rigid_alignment(in_world, in_map);
+      std::vector<StampedPose> map_keyframes;
+      for (const MapKeyframe& kf : map.data.keyframes) {
+        map_keyframes.push_back({kf.utime_us * 1e-6, kf.T_map_body});
+      }
+      const Trajectory mapped_area(std::move(map_keyframes));
       for (const std::string& name : split_list(sessions)) {
         const std::string session_dir = data + "/" + lidar + "/" + name;
         Session session;
@@ -257,29 +322,49 @@ int main(int argc, char** argv) {
           if (shutdown_requested()) {
             throw std::runtime_error("interrupted");
           }
-          const Row r =
+          Row r =
               run_case(map, T_map_world, session, name, lidar, variant, config.optimizer.localizer,
                        config.initializer.search, config.descriptor);
           spdlog::info(
-              "{} {} {}: ATE {:.3f} m, RLM {:.0f} % (truth {:.0f} %), JFGO {:.1f} ms, "
-              "latency {:.1f} / {:.1f} ms{} ({})",
-              lidar, name, variant, r.ate_m, 100 * r.rlm_share, 100 * r.rlm_share_truth,
-              r.jfgo_ms_median, r.latency_ms_median, r.latency_ms_p99, r.failed ? ", FAILED" : "",
-              r.init);
-          rows.push_back(r);
+              "{} {} {}: ATE {:.3f} m, RLM {:.0f} % (truth {:.0f} %), switches {} (truth {}, "
+              "{} missed, within {:.1f} m), JFGO {:.1f} ms, latency {:.1f} / {:.1f} ms{} ({})",
+              lidar, name, variant, r.ate_m, 100 * r.rlm_share, 100 * r.rlm_share_truth, r.switches,
+              r.switches_truth, r.switches_missed, r.switch_error_m_max, r.jfgo_ms_median,
+              r.latency_ms_median, r.latency_ms_p99, r.failed ? ", FAILED" : "", r.init);
+          if (!plots_dir.empty() && !r.estimate.empty()) {
+            eval::TrajectoryPlotInput plot;
+            plot.ground_truth = Trajectory(r.truth);
+            plot.estimate = Trajectory(r.estimate);
+            plot.modes = eval::ModeTimeline(r.modes);
+            plot.mapped_area = mapped_area;
+            plot.title = fmt::format("{} {} {}: ATE {:.3f} m; estimate green in RLM, orange in ILM",
+                                     lidar, name, variant, r.ate_m);
+            const std::string path =
+                plots_dir + "/efg_" + lidar + "_" + name + "_" + variant + ".png";
+            if (!cv::imwrite(path, eval::render_trajectory_plot(plot, {}))) {
+              throw std::runtime_error(path + ": cannot write the plot");
+            }
+          }
+          r.estimate.clear();
+          r.truth.clear();
+          r.modes.clear();
+          rows.push_back(std::move(r));
         }
       }
     }
     std::printf(
         "| session | lidar | variant | ATE (m) | xyz_rpy | rot (deg) | failed | RLM share | RLM "
-        "share of the truth | JFGO median (ms) | latency median / p99 (ms) | max jump (m) |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        "share of the truth | switches (truth, missed) | switch error max (m) | JFGO median "
+        "(ms) | latency median / p99 (ms) | max jump (m) |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (const Row& r : rows) {
       std::printf(
-          "| %s | %s | %s | %.3f | %.3f | %.2f | %s | %.2f | %.2f | %.1f | %.1f / %.1f | %.2f |\n",
+          "| %s | %s | %s | %.3f | %.3f | %.2f | %s | %.2f | %.2f | %d (%d, %d) | %.1f | %.1f | "
+          "%.1f / %.1f | %.2f |\n",
           r.session.c_str(), r.lidar.c_str(), r.variant.c_str(), r.ate_m, r.xyz_rpy, r.rot_deg,
-          r.failed ? "yes" : "no", r.rlm_share, r.rlm_share_truth, r.jfgo_ms_median,
-          r.latency_ms_median, r.latency_ms_p99, r.max_jump_m);
+          r.failed ? "yes" : "no", r.rlm_share, r.rlm_share_truth, r.switches, r.switches_truth,
+          r.switches_missed, r.switch_error_m_max, r.jfgo_ms_median, r.latency_ms_median,
+          r.latency_ms_p99, r.max_jump_m);
     }
     if (!json_path.empty()) {
       eval::JsonWriter json;
@@ -306,6 +391,14 @@ int main(int argc, char** argv) {
             .number(r.rlm_share)
             .key("rlm_share_truth")
             .number(r.rlm_share_truth)
+            .key("switches")
+            .number(r.switches)
+            .key("switches_truth")
+            .number(r.switches_truth)
+            .key("switches_missed")
+            .number(r.switches_missed)
+            .key("switch_error_m_max")
+            .number(r.switch_error_m_max)
             .key("jfgo_ms_median")
             .number(r.jfgo_ms_median)
             .key("latency_ms_median")

@@ -23,6 +23,7 @@
 #include "eval/json_writer.hpp"
 #include "eval/latency_stats.hpp"
 #include "eval/trajectory_metrics.hpp"
+#include "math/so3.hpp"
 #include "odometry/lidar_inertial_odometry.hpp"
 #include "sim/lidar_model.hpp"
 #include "sim/session_recipe.hpp"
@@ -153,15 +154,20 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
         const Eigen::Isometry3d gt0 =
             trajectory.pose(estimate.front().time_s - recipe.start_utime * 1e-6);
         const Eigen::Isometry3d rel_gt = gt0.inverse() * gt;
+        const Eigen::Vector3d rpy_est = so3::to_rpy(e.T_odom_body.linear()) * so3::kRadToDeg;
+        const Eigen::Vector3d rpy_gt = so3::to_rpy(rel_gt.linear()) * so3::kRadToDeg;
         std::fprintf(stderr,
-                     "t %6.1f est %8.2f %8.2f %6.2f gt %8.2f %8.2f %6.2f fit %.3f corr %5d "
-                     "deg %d v %.2f ba %.3f %.3f %.3f bg %.4f %.4f %.4f ms %.1f\n",
+                     "t %6.1f est %8.2f %8.2f %6.2f gt %8.2f %8.2f %6.2f rpy est %6.1f %6.1f %7.1f "
+                     "gt %6.1f %6.1f %7.1f fit %.3f corr %5d deg %d v %.2f ba %.3f %.3f %.3f bg "
+                     "%.4f %.4f %.4f ms %.1f%s%s\n",
                      t, e.T_odom_body.translation().x(), e.T_odom_body.translation().y(),
                      e.T_odom_body.translation().z(), rel_gt.translation().x(),
-                     rel_gt.translation().y(), rel_gt.translation().z(), e.fitness_m,
+                     rel_gt.translation().y(), rel_gt.translation().z(), rpy_est.x(), rpy_est.y(),
+                     rpy_est.z(), rpy_gt.x(), rpy_gt.y(), rpy_gt.z(), e.fitness_m,
                      e.correspondences, e.degenerate ? 1 : 0, e.velocity_odom.norm(),
                      e.accel_bias.x(), e.accel_bias.y(), e.accel_bias.z(), e.gyro_bias.x(),
-                     e.gyro_bias.y(), e.gyro_bias.z(), e.timings.total_ms);
+                     e.gyro_bias.y(), e.gyro_bias.z(), e.timings.total_ms,
+                     e.lost_reason.empty() ? "" : " lost: ", e.lost_reason.c_str());
       }
       cycle_ms.push_back(e.timings.total_ms);
       const double stages[5] = {e.timings.preprocess_ms, e.timings.propagate_ms,

@@ -8,10 +8,10 @@
 #include <stdexcept>
 
 #include "math/se3.hpp"
+#include "math/so3.hpp"
 
 namespace liloc::eval {
 namespace {
-constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // TUM files and LCM headers keep microseconds, and at Unix-epoch magnitudes a double
 // resolves ~0.2 us: a 10 Hz gap can read 0.1000002 s. Gaps are compared with this slack
@@ -57,7 +57,7 @@ void add_rpe(const std::vector<PosePair>& pairs, const std::vector<double>& dist
     const double length_m = distance_m[j] - distance_m[i];
     const Eigen::Isometry3d E = relative_error(pairs[i], pairs[j]);
     translation_sum += E.translation().norm() / length_m * 100.0;
-    rotation_sum += se3::rotation_angle(E) * kRadToDeg / length_m * 100.0;
+    rotation_sum += se3::rotation_angle(E) * so3::kRadToDeg / length_m * 100.0;
     ++m.rpe_segments;
   }
   if (m.rpe_segments == 0) {
@@ -200,7 +200,7 @@ TrajectoryMetrics evaluate_trajectory(const Trajectory& ground_truth, const Traj
   for (const PosePair& pair : association.pairs) {
     const Eigen::Isometry3d E = pair.T_gt_body.inverse() * pair.T_est_body;
     const double position_m = E.translation().norm();  // = ||p_est - p_gt||
-    const double rotation_deg = se3::rotation_angle(E) * kRadToDeg;
+    const double rotation_deg = se3::rotation_angle(E) * so3::kRadToDeg;
     position_sq += position_m * position_m;
     full_sq += (E.matrix() - Eigen::Matrix4d::Identity()).squaredNorm();
     rotation_sq += rotation_deg * rotation_deg;

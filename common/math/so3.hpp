@@ -4,8 +4,11 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cmath>
 
 namespace liloc::so3 {
+
+inline constexpr double kRadToDeg = 180.0 / M_PI;
 
 // [v]x: the skew-symmetric matrix with hat(a) * b = a.cross(b).
 Eigen::Matrix3d hat(const Eigen::Vector3d& v);

@@ -14,8 +14,6 @@
 namespace liloc {
 namespace {
 
-constexpr double kRadToDeg = 180.0 / M_PI;
-
 // The index of the last sample at or before t_us (the first one for earlier times).
 size_t sample_at(const std::vector<ImuSample>& imu, double t_us) {
   const auto it = std::upper_bound(imu.begin(), imu.end(), t_us, [](double t, const ImuSample& s) {
@@ -399,13 +397,13 @@ ExtrinsicEstimate ExtrinsicCheck::estimate() const {
   fit = best_fit(best_offset_us, {fit.R});
 
   out.R_BF = fit.R;
-  out.rotation_error_deg = so3::log(fit.R).norm() * kRadToDeg;
+  out.rotation_error_deg = so3::log(fit.R).norm() * so3::kRadToDeg;
   const Eigen::Matrix3d rotation_covariance = fit.covariance.topLeftCorner<3, 3>();
   out.rotation_sigma_deg =
       std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(rotation_covariance)
                                   .eigenvalues()
                                   .maxCoeff())) *
-      kRadToDeg;
+      so3::kRadToDeg;
   out.time_offset_error_s = best_offset_us * 1e-6;
   out.gyro_bias_rps = fit.bg;
   out.gravity_mps2 = fit.g.norm();
@@ -436,18 +434,21 @@ std::optional<ExtrinsicEstimate> ExtrinsicCheck::poll(
                         e.velocity_rms_mps > 5.0 * config_.velocity_sigma_mps;
   const bool rotation_off = certain && e.rotation_error_deg > config_.warn_rotation_deg &&
                             e.rotation_error_deg > 3.0 * e.rotation_sigma_deg;
-  const bool offset_off = std::abs(e.time_offset_error_s) > config_.warn_offset_s;
+  // The offset is fitted with the estimated rotation: without a certain rotation it is not
+  // a finding (VLP-16 campus C, a correct rig: "72 ms").
+  const bool offset_off = certain && std::abs(e.time_offset_error_s) > config_.warn_offset_s;
   e.warn = rotation_off || offset_off || poor_fit;
-  const Eigen::Vector3d configured = so3::to_rpy(R_body_lidar_configured) * kRadToDeg;
-  const Eigen::Vector3d estimated = so3::to_rpy(e.R_BF * R_body_lidar_configured) * kRadToDeg;
+  const Eigen::Vector3d configured = so3::to_rpy(R_body_lidar_configured) * so3::kRadToDeg;
+  const Eigen::Vector3d estimated = so3::to_rpy(e.R_BF * R_body_lidar_configured) * so3::kRadToDeg;
   char text[512];
   if (!certain) {
     std::snprintf(text, sizeof(text),
                   "extrinsic not checked: %.0f s of motion left the rotation uncertain (%.1f "
-                  "+-%.1f deg, residuals %.3f rad/s %.3f m/s, gravity %.2f, %d sweeps); the clock "
-                  "offset looks %.1f ms off",
+                  "+-%.1f deg, residuals %.3f rad/s %.3f m/s, gravity %.2f, %d sweeps), and the "
+                  "clock offset with it%s",
                   e.motion_s, e.rotation_error_deg, e.rotation_sigma_deg, e.gyro_rms_rps,
-                  e.velocity_rms_mps, e.gravity_mps2, e.sweeps, 1e3 * e.time_offset_error_s);
+                  e.velocity_rms_mps, e.gravity_mps2, e.sweeps,
+                  poor_fit ? "; the motions fit poorly: check the extrinsic" : "");
   } else if (rotation_off) {
     // A wrong rotation distorts the LiDAR-only poses' timing too: the offset waits for it.
     std::snprintf(text, sizeof(text),

@@ -84,13 +84,17 @@ void OdometryConfig::validate() const {
     throw std::invalid_argument(
         "max_queued_scans must be at least 1 and imu_buffer_s within [1, 600]");
   }
-  if (uncertain_iterations < 1) {
-    throw std::invalid_argument("uncertain_iterations must be at least 1");
+  if (uncertain_iterations < 1 || search_confirming_starts < 1) {
+    throw std::invalid_argument(
+        "uncertain_iterations and search_confirming_starts must be at least 1");
   }
   search.validate();
   extrinsic_check.validate();
   if (!(correction_blend > 0 && correction_blend <= 1)) {
     throw std::invalid_argument("correction_blend must be in (0, 1]");
+  }
+  if (!(redeskew_blend >= 0 && redeskew_blend <= 1)) {
+    throw std::invalid_argument("redeskew_blend must be in [0, 1]");
   }
   require_positive({{"stationary_accel_std_mps2", stationary_accel_std_mps2},
                     {"stationary_gyro_std_rps", stationary_gyro_std_rps},
@@ -100,6 +104,7 @@ void OdometryConfig::validate() const {
                     {"standstill_velocity_sigma_mps", standstill_velocity_sigma_mps},
                     {"motion_translation_sigma_mps", motion_translation_sigma_mps},
                     {"motion_rotation_sigma_rps", motion_rotation_sigma_rps},
+                    {"max_rotation_extrapolation_s", max_rotation_extrapolation_s},
                     {"correspondence_sigmas", correspondence_sigmas},
                     {"correspondence_lever_m", correspondence_lever_m},
                     {"correspondence_cap_m", correspondence_cap_m},
@@ -109,6 +114,10 @@ void OdometryConfig::validate() const {
                     {"search_max_yaw_rad", search_max_yaw_rad},
                     {"search_inlier_m", search_inlier_m},
                     {"search_min_inlier_ratio", search_min_inlier_ratio},
+                    {"search_confirmed_inlier_ratio", search_confirmed_inlier_ratio},
+                    {"search_agree_m", search_agree_m},
+                    {"search_agree_rad", search_agree_rad},
+                    {"search_runner_up_fraction", search_runner_up_fraction},
                     {"lost_after_degenerate_s", lost_after_degenerate_s},
                     {"max_speed_mps", max_speed_mps},
                     {"max_accel_mps2", max_accel_mps2},
@@ -135,6 +144,7 @@ LidarInertialOdometry::LidarInertialOdometry(const OdometryConfig& config)
     extrinsic_check_.emplace(config_.extrinsic_check);
     OdometryConfig lidar_only = config_;
     lidar_only.use_imu = false;
+    lidar_only.redeskew_blend = 1.0;  // see OdometryConfig::redeskew_blend
     lidar_only_ = std::make_unique<LidarInertialOdometry>(lidar_only);
   }
 }
@@ -317,9 +327,16 @@ void LidarInertialOdometry::predict(int64_t end_utime, MotionProfile& motion) {
     counters_.imu_gaps += stats.gaps;
     last_omega_ = motion.samples().back().omega_body;
   } else {
-    motion = constant_twist_motion(T_local_body(), state_utime_, end_utime, twist_);
-    const MotionSample& end = motion.samples().back();
     const double dt = (end_utime - state_utime_) * 1e-6;
+    Vector6d twist = twist_;
+    if (dt > config_.max_rotation_extrapolation_s) {
+      // Only the heading turns on (about the local frame's z), and for a while only.
+      const double yaw_rate = (x_.R * twist_.tail<3>()).z();
+      twist.tail<3>() = x_.R.transpose() * Eigen::Vector3d(0.0, 0.0, yaw_rate) *
+                        (config_.max_rotation_extrapolation_s / dt);
+    }
+    motion = constant_twist_motion(T_local_body(), state_utime_, end_utime, twist);
+    const MotionSample& end = motion.samples().back();
     x_.R = end.R;
     x_.p = end.p;
     x_.v = end.v;
@@ -483,21 +500,23 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
   const bool searched = reach_m > config_.search_beyond_m;
   if (searched) {
     ++counters_.searched_scans;
-    const auto [found, inlier_ratio] = register_by_search(source, prior, reach_m);
-    if (inlier_ratio < config_.search_min_inlier_ratio) {
+    SearchOutcome found = register_by_search(source, prior, reach_m);
+    if (!found.accepted) {
       // The sweep sees what the local map never did (around a corner, after a long pause):
       // nothing to place it against, so the local map restarts from it at the predicted
       // pose rather than take a pose that fits a few points.
-      char reason[160];
+      char reason[200];
       std::snprintf(reason, sizeof(reason),
-                    "after %.1f s without a sweep only %.0f %% of the sweep fits the local map: "
-                    "the local map restarts at the predicted pose",
-                    (sweep.end_utime - sweep.utime_before) * 1e-6, 100.0 * inlier_ratio);
+                    "after %.1f s without a sweep only %.0f %% of the sweep fits the local map "
+                    "(%d starts agree, %.0f %% elsewhere): the local map restarts at the "
+                    "predicted pose",
+                    (sweep.end_utime - sweep.utime_before) * 1e-6, 100.0 * found.inlier_ratio,
+                    found.agreeing_starts, 100.0 * found.runner_up_ratio);
       est.lost_reason = reason;
       restart_local_map();
       return;
     }
-    result = found;
+    result = std::move(found.result);
   } else {
     result = register_point_to_plane(
         source, map_, prior.T_target_source, prior,
@@ -507,14 +526,20 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
   const Eigen::Vector3d p_predicted = x_.p;
   update(result);
   if (!config_.use_imu) {
+    const Vector6d twist_predicted = twist_;
     update_twist(sweep);
-    if (config_.redeskew_without_imu && !searched) {
+    // (Not across a longer pause: the twist is then an average over the pause.)
+    const double gap_s = (sweep.end_utime - sweep.utime_before) * 1e-6;
+    if (config_.redeskew_blend > 0.0 && gap_s <= config_.max_rotation_extrapolation_s) {
       // The sweep was deskewed with the previous sweep's twist: where the rate changes
       // (a turn's start or end) that lags, and the registered pose sits toward the sweep's
-      // middle, half a sweep late. Deskewed again with this sweep's own twist, it ends
-      // where it should.
-      sweep.motion = constant_twist_motion(sweep.T_local_body_before, sweep.utime_before,
-                                           sweep.end_utime, twist_);
+      // middle. It is deskewed again, part of the way to the twist registration just
+      // measured: that measurement carries the first pass's lag itself, and all of it made
+      // the yaw overshoot and ring after a turn's start (+-1 deg, OS1-64 campus).
+      const double b = config_.redeskew_blend;
+      sweep.motion =
+          constant_twist_motion(sweep.T_local_body_before, sweep.utime_before, sweep.end_utime,
+                                b * twist_ + (1.0 - b) * twist_predicted);
       sweep.points_body =
           deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, sweep.motion, T_body_lidar_);
       result = register_point_to_plane(
@@ -606,7 +631,7 @@ void LidarInertialOdometry::restart_local_map() {
   have_map_insert_ = false;
 }
 
-std::pair<RegistrationResult, double> LidarInertialOdometry::register_by_search(
+LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
     const std::vector<Eigen::Vector3f>& source, const PosePrior& prior, double reach_m) const {
   const double sigma_r = std::sqrt(P_.block<3, 3>(kRot, kRot).diagonal().maxCoeff());
   const double yaw = so3::yaw(x_.R);
@@ -643,18 +668,34 @@ std::pair<RegistrationResult, double> LidarInertialOdometry::register_by_search(
     }
     return count;
   };
-  std::optional<RegistrationResult> best;
-  int best_inliers = -1;
+  std::vector<std::pair<RegistrationResult, int>> answers;
   for (const Eigen::Isometry3d& start : starts) {
     RegistrationResult r =
         register_point_to_plane(source, map_, start, prior, refine, T_body_lidar_.translation());
     const int n = inliers(r.T_target_source);
-    if (n > best_inliers) {
-      best_inliers = n;
-      best = std::move(r);
+    answers.emplace_back(std::move(r), n);
+  }
+  const auto best =
+      std::max_element(answers.begin(), answers.end(),
+                       [](const auto& a, const auto& b) { return a.second < b.second; });
+  SearchOutcome out;
+  out.result = best->first;
+  const double points = static_cast<double>(source.size());
+  out.inlier_ratio = best->second / points;
+  for (const auto& [answer, n] : answers) {
+    const Eigen::Isometry3d d = best->first.T_target_source.inverse() * answer.T_target_source;
+    if (d.translation().norm() <= config_.search_agree_m &&
+        se3::rotation_angle(d) <= config_.search_agree_rad) {
+      ++out.agreeing_starts;
+    } else {
+      out.runner_up_ratio = std::max(out.runner_up_ratio, n / points);
     }
   }
-  return {*best, static_cast<double>(best_inliers) / static_cast<double>(source.size())};
+  out.accepted = out.inlier_ratio >= config_.search_min_inlier_ratio ||
+                 (out.inlier_ratio >= config_.search_confirmed_inlier_ratio &&
+                  out.agreeing_starts >= config_.search_confirming_starts &&
+                  out.runner_up_ratio < config_.search_runner_up_fraction * out.inlier_ratio);
+  return out;
 }
 
 void LidarInertialOdometry::update_map(const Sweep& sweep) {

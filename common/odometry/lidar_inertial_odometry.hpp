@@ -72,6 +72,12 @@ struct OdometryConfig {
   // LiDAR-only constant-velocity model: expected change of velocity per second.
   double motion_translation_sigma_mps = 2.0;
   double motion_rotation_sigma_rps = 0.5;
+  // Across a longer pause only the heading's rate (about the local frame's z) is
+  // extrapolated, and for this long only: a turn ends, and a roll or pitch rate (a few
+  // degrees per second of registration noise) carried across the pause tilted the pose by
+  // up to 71 degrees, which the level search and, after a restart, every later sweep
+  // inherit.
+  double max_rotation_extrapolation_s = 0.5;
   VoxelMapConfig map;
   // registration.max_correspondence_m is the floor of the association radius; it widens
   // with the predicted pose's uncertainty (this many sigmas, the rotation's taken at
@@ -102,14 +108,28 @@ struct OdometryConfig {
   double search_inlier_m = 0.2;
   // Below this share of inliers the sweep cannot be placed (it sees what the local map
   // never did): the local map restarts from it at the predicted pose, and the estimate
-  // says why (OdometryEstimate::lost_reason).
+  // says why (OdometryEstimate::lost_reason). After a pause of seconds the sweep sees
+  // far ahead of the local map and even its true pose may fit fewer: down to
+  // search_confirmed_inlier_ratio it is taken when search_confirming_starts starts (the
+  // prediction among them) converged to it (within search_agree_m and search_agree_rad) and no
+  // other answer came within search_runner_up_fraction of its inliers.
   double search_min_inlier_ratio = 0.3;
+  double search_confirmed_inlier_ratio = 0.15;
+  int search_confirming_starts = 3;
+  double search_agree_m = 0.5;
+  double search_agree_rad = 0.02;
+  double search_runner_up_fraction = 0.8;
   // Without an IMU, a degenerate streak this long makes the estimate lost (its reason
   // says so): along the weak direction it is the constant-velocity model's guess.
   double lost_after_degenerate_s = 3.0;
-  // Without an IMU, each sweep is deskewed and registered a second time with its own
-  // twist (the first pass used the previous sweep's).
-  bool redeskew_without_imu = true;
+  // Without an IMU, above 0 each sweep is deskewed and registered a second time, with the
+  // previous sweep's twist moved this fraction of the way to the twist the first pass
+  // measured (not after a pause longer than max_rotation_extrapolation_s). 0 (one pass):
+  // 0.5 halved the error of some full campus sessions and made others diverge (VLP-16
+  // campus C 0.95 -> 3.7 % RPE; docs/odometry.md). The extrinsic check's LiDAR-only twin
+  // uses 1: one pass leaves its poses a fraction of a sweep late, which it would read as
+  // a clock offset.
+  double redeskew_blend = 0.0;
   // Health: an estimate faster than max_speed_mps or, with the IMU, whose velocity changed
   // faster than max_accel_mps2 over a sweep or that registration moved more than
   // max_jump_m from the prediction is not trusted: lost, with the reason, back to the
@@ -158,6 +178,7 @@ struct OdometryConfig {
     v("standstill_velocity_sigma_mps", standstill_velocity_sigma_mps);
     v("motion_translation_sigma_mps", motion_translation_sigma_mps);
     v("motion_rotation_sigma_rps", motion_rotation_sigma_rps);
+    v("max_rotation_extrapolation_s", max_rotation_extrapolation_s);
     v("map", map);
     v("registration", registration);
     v("correspondence_sigmas", correspondence_sigmas);
@@ -170,8 +191,13 @@ struct OdometryConfig {
     v("search_max_yaw_rad", search_max_yaw_rad);
     v("search_inlier_m", search_inlier_m);
     v("search_min_inlier_ratio", search_min_inlier_ratio);
+    v("search_confirmed_inlier_ratio", search_confirmed_inlier_ratio);
+    v("search_confirming_starts", search_confirming_starts);
+    v("search_agree_m", search_agree_m);
+    v("search_agree_rad", search_agree_rad);
+    v("search_runner_up_fraction", search_runner_up_fraction);
     v("lost_after_degenerate_s", lost_after_degenerate_s);
-    v("redeskew_without_imu", redeskew_without_imu);
+    v("redeskew_blend", redeskew_blend);
     v("max_speed_mps", max_speed_mps);
     v("max_accel_mps2", max_accel_mps2);
     v("max_jump_m", max_jump_m);
@@ -265,10 +291,17 @@ class LidarInertialOdometry {
   // correspondence_sigmas.
   double prediction_reach_m() const;
   // Registration from the starts of a correlative search around the prediction (within
-  // reach_m, prediction_reach_m()), and the share of the source's points within
-  // search_inlier_m of the map there.
-  std::pair<RegistrationResult, double> register_by_search(
-      const std::vector<Eigen::Vector3f>& source, const PosePrior& prior, double reach_m) const;
+  // reach_m, prediction_reach_m()): the answer with the most points within
+  // search_inlier_m of the map, and how well it is confirmed.
+  struct SearchOutcome {
+    RegistrationResult result;
+    double inlier_ratio = 0.0;
+    int agreeing_starts = 0;       // starts that converged to the answer
+    double runner_up_ratio = 0.0;  // the best answer elsewhere
+    bool accepted = false;
+  };
+  SearchOutcome register_by_search(const std::vector<Eigen::Vector3f>& source,
+                                   const PosePrior& prior, double reach_m) const;
   // Why the state after this sweep's update is not trusted (empty if it is); the pose
   // before the update was p_predicted.
   std::string health_problem(const Sweep& sweep, const Eigen::Vector3d& p_predicted) const;
