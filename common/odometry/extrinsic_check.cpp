@@ -9,10 +9,14 @@
 
 #include "math/se3.hpp"
 #include "math/so3.hpp"
+#include "math/trajectory.hpp"
 #include "odometry/require_positive.hpp"
 
 namespace liloc {
 namespace {
+
+// Pose pairs further apart than this (dropped sweeps) make poor rates and velocities.
+constexpr double kMaxPairGapUs = 0.5e6;
 
 // The index of the last sample at or before t_us (the first one for earlier times).
 size_t sample_at(const std::vector<ImuSample>& imu, double t_us) {
@@ -273,8 +277,7 @@ ExtrinsicEstimate ExtrinsicCheck::estimate() const {
   for (size_t k = 1; k < poses_.size(); ++k) {
     const double t0 = static_cast<double>(poses_[k - 1].utime_us);
     const double t1 = static_cast<double>(poses_[k].utime_us);
-    // Longer gaps (dropped sweeps) would make the mean rate a poor rotation vector.
-    if (t1 - t0 <= 0.5e6 && covered(t0, t1)) {
+    if (t1 - t0 <= kMaxPairGapUs && covered(t0, t1)) {
       const Eigen::Matrix3d dR = poses_[k - 1].T.linear().transpose() * poses_[k].T.linear();
       rates.push_back({t0, t1, so3::log(dR) / ((t1 - t0) * 1e-6)});
     }
@@ -302,23 +305,22 @@ ExtrinsicEstimate ExtrinsicCheck::estimate() const {
   for (size_t k = 1; k + 1 < poses_.size(); ++k) {
     const double t0 = static_cast<double>(poses_[k - 1].utime_us);
     const double t1 = static_cast<double>(poses_[k + 1].utime_us);
-    if (t1 - t0 <= 0.5e6) {
+    if (t1 - t0 <= kMaxPairGapUs) {
       velocities.push_back(
           {0.5 * (t0 + t1),
            (poses_[k + 1].T.translation() - poses_[k - 1].T.translation()) / ((t1 - t0) * 1e-6)});
     }
   }
+  std::vector<StampedPose> stamped;
+  stamped.reserve(poses_.size());
+  for (const Pose& p : poses_) {
+    stamped.push_back({p.utime_us * 1e-6, p.T});
+  }
+  const Trajectory trajectory(std::move(stamped));
+  // Every time asked lies within a velocity pair, so within the poses.
   const auto R_local_F = [&](double t_us) {
-    const auto after = std::upper_bound(
-        poses_.begin(), poses_.end(), t_us,
-        [](double t, const Pose& p) { return t < static_cast<double>(p.utime_us); });
-    if (after == poses_.begin() || after == poses_.end()) {
-      return Eigen::Matrix3d(after == poses_.end() ? poses_.back().T.linear()
-                                                   : poses_.front().T.linear());
-    }
-    const Pose& a = *(after - 1);
-    const double s = (t_us - a.utime_us) / static_cast<double>(after->utime_us - a.utime_us);
-    return Eigen::Matrix3d(se3::interpolate(a.T, after->T, s).linear());
+    return Eigen::Matrix3d(
+        trajectory.at(t_us * 1e-6, std::numeric_limits<double>::infinity())->linear());
   };
   const auto velocity_pairs = [&](double offset_us) {
     std::vector<VelocityPair> out_pairs;

@@ -313,7 +313,7 @@ void LidarInertialOdometry::update_twist(const Sweep& sweep) {
   // The velocity over the time since the previous sweep's end, which the prediction
   // covered: not the sweep's own duration (scans spaced irregularly, dropped sweeps).
   const Eigen::Isometry3d& T_prev = sweep.T_local_body_before;
-  const double dt = std::max((sweep.end_utime - sweep.utime_before) * 1e-6, 1e-3);
+  const double dt = std::max(sweep.gap_s(), 1e-3);
   twist_.head<3>() = T_prev.linear().transpose() * (x_.p - T_prev.translation()) / dt;
   twist_.tail<3>() = so3::log(T_prev.linear().transpose() * x_.R) / dt;
   x_.v = x_.R * twist_.head<3>();
@@ -510,8 +510,8 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
                     "after %.1f s without a sweep only %.0f %% of the sweep fits the local map "
                     "(%d starts agree, %.0f %% elsewhere): the local map restarts at the "
                     "predicted pose",
-                    (sweep.end_utime - sweep.utime_before) * 1e-6, 100.0 * found.inlier_ratio,
-                    found.agreeing_starts, 100.0 * found.runner_up_ratio);
+                    sweep.gap_s(), 100.0 * found.inlier_ratio, found.agreeing_starts,
+                    100.0 * found.runner_up_ratio);
       est.lost_reason = reason;
       restart_local_map();
       return;
@@ -529,8 +529,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
     const Vector6d twist_predicted = twist_;
     update_twist(sweep);
     // (Not across a longer pause: the twist is then an average over the pause.)
-    const double gap_s = (sweep.end_utime - sweep.utime_before) * 1e-6;
-    if (config_.redeskew_blend > 0.0 && gap_s <= config_.max_rotation_extrapolation_s) {
+    if (config_.redeskew_blend > 0.0 && sweep.gap_s() <= config_.max_rotation_extrapolation_s) {
       // The sweep was deskewed with the previous sweep's twist: where the rate changes
       // (a turn's start or end) that lags, and the registered pose sits toward the sweep's
       // middle. It is deskewed again, part of the way to the twist registration just
@@ -580,7 +579,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
 std::string LidarInertialOdometry::health_problem(const Sweep& sweep,
                                                   const Eigen::Vector3d& p_predicted) const {
   char text[200];
-  const double dt = std::max((sweep.end_utime - sweep.utime_before) * 1e-6, 1e-3);
+  const double dt = std::max(sweep.gap_s(), 1e-3);
   const double speed = x_.v.norm();
   const double accel = (x_.v - sweep.velocity_before).norm() / dt;
   const double jump = (x_.p - p_predicted).norm();

@@ -259,6 +259,8 @@ class LidarInertialOdometry {
     Eigen::Isometry3d T_local_body_before = Eigen::Isometry3d::Identity();
     Eigen::Vector3d velocity_before = Eigen::Vector3d::Zero();
     int64_t utime_before = 0;
+    // Seconds the prediction spanned: from the previous sweep's end to this one's.
+    double gap_s() const { return (end_utime - utime_before) * 1e-6; }
   };
 
   std::vector<OdometryEstimate> run(bool force);
