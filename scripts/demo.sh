@@ -75,7 +75,7 @@ echo "== 7. the map server answering 4 robots at 10 Hz over loopback"
 echo
 echo "== 8. session B localized against the map of A, in one process: the initializer (coarse"
 echo "   pose 3 m off), then the egocentric factor graph; beside it the odometry alone"
-"$BIN"/bin/bench_efg --data "$SIM/campus" --maps "$OUT/map" --lidars hdl32 --sessions B \
+"$BIN"/bin/bench_efg --data "$SIM" --maps "$OUT/map" --lidars hdl32 --sessions B \
   --variants full,ilm_only --json "" --log-level warn
 echo
 echo "== 9. the system as processes over loopback UDP: liloc_map_server, liloc_initializer and"

@@ -6,6 +6,7 @@
 #include "math/so3.hpp"
 #include "optimizer/egocentric_factor_graph.hpp"
 #include "optimizer/localizer.hpp"
+#include "optimizer/sliding_target.hpp"
 #include "sim_drive.hpp"
 
 namespace liloc {
@@ -177,6 +178,52 @@ TEST(EgocentricFactorGraph, RefusesKeyframesOutOfOrder) {
   EXPECT_THROW(EgocentricFactorGraph{bad}, std::invalid_argument);
 }
 
+// A corridor along x: every registration slid 1 m along the tunnel (where nothing fixes it)
+// but holds y, z and the rotation. With the registration's information, weak along x, the
+// scan-match factors hold the estimate to the map across the tunnel and leave the axis to
+// the odometry (exact here); with the base noise alone they would pull it 1 m along.
+TEST(EgocentricFactorGraph, DegenerateScanMatchDoesNotPullAlongItsWeakAxis) {
+  const auto run_corridor = [](const std::optional<Matrix6d>& information) {
+    EgocentricGraphConfig config;
+    EgocentricFactorGraph graph(config);
+    GraphKeyframe kf;
+    kf.utime_us = 1'000'000;
+    // Started 0.3 m off across the tunnel, known loosely across (1 m) and well along it
+    // (1 cm, where the tunnel started): the scan matches must bring it back across.
+    Vector6d variance;
+    variance << 1e-4, 1.0, 1e-4, 1e-6, 1e-6, 1e-6;
+    graph.start(kf, se3::make(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.0, 0.3, 0.0)),
+                variance.asDiagonal());
+    GraphEstimate last;
+    for (int k = 1; k <= 30; ++k) {
+      kf.id = k;
+      kf.utime_us += 1'000'000;
+      const Eigen::Vector3d truth(k, 0.0, 0.0);
+      kf.T_odom_body.translation() = truth;
+      ScanMatch match;
+      match.T_map_body.translation() = truth + Eigen::Vector3d(1.0, 0.0, 0.0);
+      match.information = information;
+      for (int i = 0; i < 3; ++i) {
+        Eigen::Isometry3d T_map_keyframe = Eigen::Isometry3d::Identity();
+        T_map_keyframe.translation() = Eigen::Vector3d(k + i - 1.0, 0.0, 0.0);
+        match.prior_nodes.push_back({100 + k + i, T_map_keyframe, 0.05});
+      }
+      kf.scan_match = match;
+      last = graph.add(kf);
+      EXPECT_EQ(last.scan_match_factors, 3);
+    }
+    return Eigen::Vector3d(last.T_map_body.translation() - Eigen::Vector3d(30.0, 0.0, 0.0));
+  };
+  Matrix6d weak_along_x = Matrix6d::Identity() * 1e8;
+  weak_along_x(0, 0) = 1e-4;  // 100 m sigma along the tunnel, 0.1 mm across
+  const Eigen::Vector3d degenerate = run_corridor(weak_along_x);
+  EXPECT_LT(std::abs(degenerate.x()), 0.05);  // the odometry's, not the slid registration's
+  EXPECT_LT(std::abs(degenerate.y()), 0.01);  // held across the tunnel
+  const Eigen::Vector3d base_only = run_corridor(std::nullopt);
+  EXPECT_GT(base_only.x(), 0.8);
+  EXPECT_LT(std::abs(base_only.y()), 0.01);
+}
+
 // The overlap of Eq. 11 on a hand-made map: one submap whose bounds are x in [0, 100], y in [-20,
 // 20]. The square [x +- 10, y +- 10] around the predicted position: fully inside at x = 50 (RLM),
 // 75 % inside at x = 95 (RLM), 25 % at x = 105 (ILM). The map has no clouds, so the scan
@@ -225,6 +272,54 @@ TEST(Localizer, ModeFollowsTheOverlapOfEq11) {
   EXPECT_EQ(outside.mode, LocalizationMode::kIncremental);
   EXPECT_TRUE(outside.gate.empty());                               // ILM: no scan match tried
   EXPECT_NEAR(outside.T_map_body.translation().x(), 105.0, 1e-6);  // the odometry carries it
+}
+
+// Submaps within reach are inserted whole at once; one just beyond is inserted ahead, a
+// bounded part per update, so that no keyframe pays for whole submaps coming into reach.
+// Submap 0 at the robot, 1 at 50 m (ahead), 2 at 55 m (ahead, not fetched yet).
+TEST(SlidingTarget, InsertsWhatIsInReachAndPrefetchesTheNextInParts) {
+  MapData map;
+  for (int k = 0; k < 3; ++k) {
+    MapKeyframe kf;
+    kf.id = k;
+    kf.submap_id = k;
+    kf.T_map_body.translation() = Eigen::Vector3d(k == 0 ? 0.0 : 45.0 + 5.0 * k, 0.0, 0.0);
+    map.keyframes.push_back(kf);
+    Submap submap;
+    submap.id = k;
+    submap.keyframe_ids = {k};
+    submap.centroid = kf.T_map_body.translation();
+    submap.bounds = {submap.centroid.x() - 10, submap.centroid.x() + 10, -10.0, 10.0};
+    map.submaps.push_back(submap);
+  }
+  const MapIndex index(map, {}, PolarDescriptorConfig{});
+  // 40 000 points a submap, 0.2 m apart on a 200 x 200 grid around its centroid.
+  const auto cloud = [&](int64_t id) {
+    auto points = std::make_shared<std::vector<Eigen::Vector3f>>();
+    const Eigen::Vector3f c = map.submaps[static_cast<size_t>(id)].centroid.cast<float>();
+    for (int i = 0; i < 200; ++i) {
+      for (int j = 0; j < 200; ++j) {
+        points->push_back(c + Eigen::Vector3f(0.2f * i - 20.0f, 0.2f * j - 20.0f, 0.0f));
+      }
+    }
+    return std::shared_ptr<const std::vector<Eigen::Vector3f>>(points);
+  };
+  const SubmapTargets targets([&](int64_t id) { return id == 2 ? nullptr : cloud(id); });
+  SlidingTarget target({0.5}, 35.0, 30.0, 15000, 200.0);
+  const Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  const SlidingTarget::Update first = target.update(index, targets, origin);
+  EXPECT_TRUE(first.missing.empty());
+  EXPECT_EQ(first.upcoming, std::vector<int64_t>{2});
+  EXPECT_EQ(target.submaps(), 1u);  // submap 0 whole, 15 000 points of submap 1
+  const size_t after_first = target.stage(0).num_points();
+  target.update(index, targets, origin);
+  EXPECT_EQ(target.submaps(), 1u);
+  EXPECT_GT(target.stage(0).num_points(), after_first);
+  target.update(index, targets, origin);  // 45 000 >= 40 000: submap 1 is in
+  EXPECT_EQ(target.submaps(), 2u);
+  // At 50 m submap 2 is within reach and still not there: the scan match must wait.
+  EXPECT_EQ(target.update(index, targets, Eigen::Vector3d(50.0, 0.0, 0.0)).missing,
+            std::vector<int64_t>{2});
 }
 
 }  // namespace

@@ -112,6 +112,14 @@ TEST(Registration, CorridorIsDegenerateAndThePriorHoldsIt) {
   EXPECT_LT(r.translation_eigen_ratio, 0.02);
   EXPECT_NEAR(r.T_target_source.translation().x(), 0.7, 0.05) << "along the corridor: the prior";
   EXPECT_NEAR(r.T_target_source.translation().y(), 0.0, 0.01) << "across it: the walls";
+  // What it determined: in translation, the two directions across the corridor.
+  const Matrix6d constrained = constrained_directions(r.information, 0.02);
+  EXPECT_NEAR(constrained.block(0, 0, 3, 3).trace(), 2.0, 1e-9);
+  EXPECT_LT((constrained * Vector6d::Unit(0)).norm(), 0.1);
+  EXPECT_NEAR((constrained * Vector6d::Unit(1)).norm(), 1.0, 0.01);
+  // As if from 200 independent matches: the information scaled down by matches / 200.
+  EXPECT_TRUE(r.independent_information(200).isApprox(r.information * 200.0 /
+                                                      static_cast<double>(r.correspondences)));
 }
 
 // The information and the steps are over the right perturbation (math/se3.hpp): from the

@@ -1,7 +1,7 @@
 // bench_efg: the joint optimizer (egocentric factor graph) on simulated sessions against the
 // map of session A, in the form of the paper's Tables II and III, with the ablations.
 //
-// For each case (a LiDAR and a session): the odometry runs over the session's log as the
+// For each case (a LiDAR, a world and a session): the odometry runs over the session's log as the
 // process would; the first keyframe is initialized (coarse-to-fine from a coarse pose 3 m
 // and 20 degrees off the truth, or globally for session D, keyframe after keyframe until
 // it localizes); then every keyframe goes through the localizer (mode by Eq. 11's overlap,
@@ -13,14 +13,18 @@
 // map says RLM, and, along the path, how far each of the truth's switches (leaving or
 // re-entering the mapped area) is from the estimate's nearest switch the same way.
 //
-//   bench_efg --data DIR/campus --maps DIR/map_%s [--lidars hdl32] [--sessions B,C,D]
-//             [--variants full,direct,...] [--plots DIR]
+// The corridor's second session (C) measures the degenerate case: a tunnel whose scans fix
+// its axis only at lights, cabinets and corners.
+//
+//   bench_efg --data DIR --maps 'DIR/maps/{world}/{lidar}' [--lidars hdl32]
+//             [--sessions B,C,D,corridor:C] [--variants full,direct,...] [--plots DIR]
 
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
@@ -51,7 +55,7 @@ constexpr double kPi = 3.141592653589793;
 constexpr double kFailedM = 2.0;  // a pose this far from the truth: the run failed
 
 struct Row {
-  std::string session, lidar, variant;
+  std::string world, session, lidar, variant;
   double ate_m = 0, xyz_rpy = 0, rot_deg = 0;
   bool failed = false;
   double rlm_share = 0, rlm_share_truth = 0;
@@ -139,10 +143,11 @@ std::vector<ImuSample> imu_between(const std::vector<ImuSample>& imu, int64_t fr
 }
 
 Row run_case(const OpenedMap& map, const Eigen::Isometry3d& T_map_world, const Session& session,
-             const std::string& session_name, const std::string& lidar, const std::string& variant,
-             const LocalizerConfig& full, const InitializerConfig& init_config,
-             const PolarDescriptorConfig& descriptor) {
+             const std::string& world, const std::string& session_name, const std::string& lidar,
+             const std::string& variant, const LocalizerConfig& full,
+             const InitializerConfig& init_config, const PolarDescriptorConfig& descriptor) {
   Row row;
+  row.world = world;
   row.session = session_name;
   row.lidar = lidar;
   row.variant = variant;
@@ -261,110 +266,159 @@ Row run_case(const OpenedMap& map, const Eigen::Isometry3d& T_map_world, const S
   return row;
 }
 
+// "{world}" and "{lidar}" in a path pattern replaced.
+std::string expand(std::string pattern, const std::string& world, const std::string& lidar) {
+  for (const auto& [key, value] :
+       {std::pair<std::string, std::string>{"{world}", world}, {"{lidar}", lidar}}) {
+    for (size_t at = pattern.find(key); at != std::string::npos; at = pattern.find(key, at)) {
+      pattern.replace(at, key.size(), value);
+      at += value.size();
+    }
+  }
+  return pattern;
+}
+
+// The map of session A, and the map frame against the world: the map's keyframes fitted
+// to session A's truth.
+struct PriorMap {
+  explicit PriorMap(const std::string& directory, const std::string& truth_a_path,
+                    const SystemConfig& config)
+      : opened(directory, config.descriptor, 0.3) {
+    const Trajectory truth_a = read_tum(truth_a_path);
+    std::vector<Eigen::Vector3d> in_map, in_world;
+    std::vector<StampedPose> keyframes;
+    for (const MapKeyframe& kf : opened.data.keyframes) {
+      if (const auto T = truth_a.at(kf.utime_us * 1e-6, 0.1)) {
+        in_map.push_back(kf.T_map_body.translation());
+        in_world.push_back(T->translation());
+      }
+      keyframes.push_back({kf.utime_us * 1e-6, kf.T_map_body});
+    }
+    T_map_world = eval::fit_rigid_alignment(in_world, in_map);
+    mapped_area = Trajectory(std::move(keyframes));
+  }
+  OpenedMap opened;
+  Eigen::Isometry3d T_map_world = Eigen::Isometry3d::Identity();
+  Trajectory mapped_area;  // the map's keyframes, for the plot
+};
+
+// Sessions as "world:S" or "S" (campus), grouped by world in order of first mention.
+std::vector<std::pair<std::string, std::vector<std::string>>> sessions_by_world(
+    const std::string& list) {
+  std::vector<std::pair<std::string, std::vector<std::string>>> out;
+  for (const std::string& item : split_list(list)) {
+    const size_t colon = item.find(':');
+    const std::string world = colon == std::string::npos ? "campus" : item.substr(0, colon);
+    const std::string session = colon == std::string::npos ? item : item.substr(colon + 1);
+    auto it = std::find_if(out.begin(), out.end(), [&](const auto& w) { return w.first == world; });
+    if (it == out.end()) {
+      out.push_back({world, {}});
+      it = out.end() - 1;
+    }
+    it->second.push_back(session);
+  }
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string data = "/tmp/full/sim/campus", maps = "/tmp/full/map_%s", lidars = "hdl32";
-  std::string sessions = "B,C,D";
+  std::string data = "/tmp/full/sim", maps = "/tmp/full/maps/{world}/{lidar}", lidars = "hdl32";
+  std::string sessions = "B,C,D,corridor:C";
   std::string variants =
       "full,direct,scan_to_map_only,ilm_only,no_mode_switch,unweighted,no_marginalization";
   std::string config_path = "config/liloc.yaml", json_path = "bench/results/efg.json";
   std::string plots_dir;
   CommandLine cli("bench_efg",
                   "The joint optimizer on simulated sessions (paper Tables II-III form).");
-  cli.add_option("data", &data, "simulated sessions: <data>/<lidar>/<session>/");
-  cli.add_option("maps", &maps, "map directory of session A per LiDAR (%s: the LiDAR)");
+  cli.add_option("data", &data, "simulated sessions: <data>/<world>/<lidar>/<session>/");
+  cli.add_option("maps", &maps,
+                 "map directory of session A ({world} and {lidar} replaced in the pattern)");
   cli.add_option("lidars", &lidars, "comma list, or all");
-  cli.add_option("sessions", &sessions, "comma list");
+  cli.add_option("sessions", &sessions, "comma list of S (campus) or world:S");
   cli.add_option("variants", &variants, "full and ablations, comma list");
   cli.add_option("config", &config_path, "system config");
   cli.add_option("json", &json_path, "result file ('' for none)");
   cli.add_option("plots", &plots_dir,
-                 "write <dir>/efg_<lidar>_<session>_<variant>.png, the estimate coloured by mode");
+                 "write <dir>/efg_<world>_<lidar>_<session>_<variant>.png, the estimate "
+                 "coloured by mode");
   return run_program(cli, "bench_efg", argc, argv, [&]() -> int {
     const SystemConfig config = load_config<SystemConfig>(config_path);
     const std::vector<std::string> lidar_list =
         lidars == "all" ? sim::lidar_models() : split_list(lidars);
+    if (!plots_dir.empty()) {
+      std::filesystem::create_directories(plots_dir);
+    }
     std::vector<Row> rows;
     for (const std::string& lidar : lidar_list) {
-      char dir[512];
-      std::snprintf(dir, sizeof(dir), maps.c_str(), lidar.c_str());
-      const OpenedMap map(dir, config.descriptor, 0.3);
-      // The map frame against the world: the map's keyframes fitted to session A's truth.
-      const Trajectory truth_a = read_tum(data + "/" + lidar + "/A/ground_truth.tum");
-      std::vector<Eigen::Vector3d> in_map, in_world;
-      for (const MapKeyframe& kf : map.data.keyframes) {
-        if (const auto T = truth_a.at(kf.utime_us * 1e-6, 0.1)) {
-          in_map.push_back(kf.T_map_body.translation());
-          in_world.push_back(T->translation());
-        }
-      }
-      const Eigen::Isometry3d T_map_world = eval::fit_rigid_alignment(in_world, in_map);
-      std::vector<StampedPose> map_keyframes;
-      for (const MapKeyframe& kf : map.data.keyframes) {
-        map_keyframes.push_back({kf.utime_us * 1e-6, kf.T_map_body});
-      }
-      const Trajectory mapped_area(std::move(map_keyframes));
-      for (const std::string& name : split_list(sessions)) {
-        const std::string session_dir = data + "/" + lidar + "/" + name;
-        Session session;
-        session.truth = read_tum(session_dir + "/ground_truth.tum");
-        OdometryNodeConfig odometry;
-        const sim::SimulationConfig sim_config;
-        odometry.odometry.lidar_translation_m = sim_config.rig.lidar_translation_m;
-        odometry.odometry.lidar_rpy_deg = sim_config.rig.lidar_rpy_deg;
-        odometry.odometry.max_range_m = sim::lidar_spec(lidar).max_range_m;
-        run_odometry_on_log(
-            session_dir + "/session.lcmlog", "robot0", odometry, transport::TransportConfig{},
-            [&](const Keyframe& kf) { session.keyframes.push_back(kf); },
-            [&](const ImuSample& s) { session.imu.push_back(s); });
-        for (const std::string& variant : split_list(variants)) {
-          if (shutdown_requested()) {
-            throw std::runtime_error("interrupted");
-          }
-          Row r =
-              run_case(map, T_map_world, session, name, lidar, variant, config.optimizer.localizer,
-                       config.initializer.search, config.descriptor);
-          spdlog::info(
-              "{} {} {}: ATE {:.3f} m, RLM {:.0f} % (truth {:.0f} %), switches {} (truth {}, "
-              "{} missed, within {:.1f} m), JFGO {:.1f} ms, latency {:.1f} / {:.1f} ms{} ({})",
-              lidar, name, variant, r.ate_m, 100 * r.rlm_share, 100 * r.rlm_share_truth, r.switches,
-              r.switches_truth, r.switches_missed, r.switch_error_m_max, r.jfgo_ms_median,
-              r.latency_ms_median, r.latency_ms_p99, r.failed ? ", FAILED" : "", r.init);
-          if (!plots_dir.empty() && !r.estimate.empty()) {
-            eval::TrajectoryPlotInput plot;
-            plot.ground_truth = Trajectory(r.truth);
-            plot.estimate = Trajectory(r.estimate);
-            plot.modes = eval::ModeTimeline(r.modes);
-            plot.mapped_area = mapped_area;
-            plot.title = fmt::format("{} {} {}: ATE {:.3f} m; estimate green in RLM, orange in ILM",
-                                     lidar, name, variant, r.ate_m);
-            const std::string path =
-                plots_dir + "/efg_" + lidar + "_" + name + "_" + variant + ".png";
-            if (!cv::imwrite(path, eval::render_trajectory_plot(plot, {}))) {
-              throw std::runtime_error(path + ": cannot write the plot");
+      for (const auto& [world, world_sessions] : sessions_by_world(sessions)) {
+        const std::string lidar_dir = data + "/" + world + "/" + lidar;
+        const PriorMap map(expand(maps, world, lidar), lidar_dir + "/A/ground_truth.tum", config);
+        for (const std::string& name : world_sessions) {
+          const std::string session_dir = lidar_dir + "/" + name;
+          Session session;
+          session.truth = read_tum(session_dir + "/ground_truth.tum");
+          OdometryNodeConfig odometry;
+          const sim::SimulationConfig sim_config;
+          odometry.odometry.lidar_translation_m = sim_config.rig.lidar_translation_m;
+          odometry.odometry.lidar_rpy_deg = sim_config.rig.lidar_rpy_deg;
+          odometry.odometry.max_range_m = sim::lidar_spec(lidar).max_range_m;
+          run_odometry_on_log(
+              session_dir + "/session.lcmlog", "robot0", odometry, transport::TransportConfig{},
+              [&](const Keyframe& kf) { session.keyframes.push_back(kf); },
+              [&](const ImuSample& s) { session.imu.push_back(s); });
+          for (const std::string& variant : split_list(variants)) {
+            if (shutdown_requested()) {
+              throw std::runtime_error("interrupted");
             }
+            Row r =
+                run_case(map.opened, map.T_map_world, session, world, name, lidar, variant,
+                         config.optimizer.localizer, config.initializer.search, config.descriptor);
+            spdlog::info(
+                "{} {} {} {}: ATE {:.3f} m, RLM {:.0f} % (truth {:.0f} %), switches {} (truth {}, "
+                "{} missed, within {:.1f} m), JFGO {:.1f} ms, latency {:.1f} / {:.1f} ms{} ({})",
+                world, lidar, name, variant, r.ate_m, 100 * r.rlm_share, 100 * r.rlm_share_truth,
+                r.switches, r.switches_truth, r.switches_missed, r.switch_error_m_max,
+                r.jfgo_ms_median, r.latency_ms_median, r.latency_ms_p99, r.failed ? ", FAILED" : "",
+                r.init);
+            if (!plots_dir.empty() && !r.estimate.empty()) {
+              eval::TrajectoryPlotInput plot;
+              plot.ground_truth = Trajectory(r.truth);
+              plot.estimate = Trajectory(r.estimate);
+              plot.modes = eval::ModeTimeline(r.modes);
+              plot.mapped_area = map.mapped_area;
+              plot.title =
+                  fmt::format("{} {} {} {}: ATE {:.3f} m; estimate green in RLM, orange in ILM",
+                              world, lidar, name, variant, r.ate_m);
+              const std::string path =
+                  plots_dir + "/efg_" + world + "_" + lidar + "_" + name + "_" + variant + ".png";
+              if (!cv::imwrite(path, eval::render_trajectory_plot(plot, {}))) {
+                throw std::runtime_error(path + ": cannot write the plot");
+              }
+            }
+            r.estimate.clear();
+            r.truth.clear();
+            r.modes.clear();
+            rows.push_back(std::move(r));
           }
-          r.estimate.clear();
-          r.truth.clear();
-          r.modes.clear();
-          rows.push_back(std::move(r));
         }
       }
     }
     std::printf(
-        "| session | lidar | variant | ATE (m) | xyz_rpy | rot (deg) | failed | RLM share | RLM "
+        "| world | session | lidar | variant | ATE (m) | xyz_rpy | rot (deg) | failed | RLM share "
+        "| RLM "
         "share of the truth | switches (truth, missed) | switch error max (m) | JFGO median "
         "(ms) | latency median / p99 (ms) | max jump (m) |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (const Row& r : rows) {
       std::printf(
-          "| %s | %s | %s | %.3f | %.3f | %.2f | %s | %.2f | %.2f | %d (%d, %d) | %.1f | %.1f | "
+          "| %s | %s | %s | %s | %.3f | %.3f | %.2f | %s | %.2f | %.2f | %d (%d, %d) | %.1f | %.1f "
+          "| "
           "%.1f / %.1f | %.2f |\n",
-          r.session.c_str(), r.lidar.c_str(), r.variant.c_str(), r.ate_m, r.xyz_rpy, r.rot_deg,
-          r.failed ? "yes" : "no", r.rlm_share, r.rlm_share_truth, r.switches, r.switches_truth,
-          r.switches_missed, r.switch_error_m_max, r.jfgo_ms_median, r.latency_ms_median,
-          r.latency_ms_p99, r.max_jump_m);
+          r.world.c_str(), r.session.c_str(), r.lidar.c_str(), r.variant.c_str(), r.ate_m,
+          r.xyz_rpy, r.rot_deg, r.failed ? "yes" : "no", r.rlm_share, r.rlm_share_truth, r.switches,
+          r.switches_truth, r.switches_missed, r.switch_error_m_max, r.jfgo_ms_median,
+          r.latency_ms_median, r.latency_ms_p99, r.max_jump_m);
     }
     if (!json_path.empty()) {
       eval::JsonWriter json;
@@ -372,7 +426,7 @@ int main(int argc, char** argv) {
       for (const Row& r : rows) {
         json.begin_object()
             .key("world")
-            .string("campus")
+            .string(r.world)
             .key("session")
             .string(r.session)
             .key("lidar")

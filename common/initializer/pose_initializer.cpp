@@ -299,12 +299,10 @@ void PoseInitializer::score(const Query& query, const Track& track, InitCandidat
     inliers += finest.nearest<1>(T * p, inlier_m).count > 0;
   }
   c.inlier_ratio = points.empty() ? 0.0 : static_cast<double>(inliers) / points.size();
-  // The registration counts every match as independent; they are not (they share planes).
-  const double inflation = std::max(
-      1.0, static_cast<double>(result.correspondences) / config_.independent_correspondences);
+  const Matrix6d information = result.independent_information(config_.independent_correspondences);
   Matrix6d covariance = Matrix6d::Identity();
-  if (result.information.allFinite() && result.information.determinant() > 0.0) {
-    covariance = inflation * result.information.inverse();
+  if (information.allFinite() && information.determinant() > 0.0) {
+    covariance = information.inverse();
   }
   c.covariance = 0.5 * (covariance + covariance.transpose());
 }

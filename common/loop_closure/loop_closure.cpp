@@ -215,11 +215,9 @@ bool LoopClosureDetector::verify(const Stored& query, const Candidate& candidate
 
   // Covariance: the registration's, as if from independent_correspondences independent
   // matches, plus the target map's own inconsistency.
-  const Matrix6d& H = result.information;  // over the right perturbation of T_from_to
-  const double inflation =
-      std::max(1.0, static_cast<double>(result.correspondences) /
-                        static_cast<double>(config_.independent_correspondences));
-  Matrix6d covariance = inflation * H.inverse();
+  // Over the right perturbation of T_from_to.
+  Matrix6d covariance =
+      result.independent_information(config_.independent_correspondences).inverse();
   covariance.diagonal().head<3>().array() +=
       config_.map_sigma_translation_m * config_.map_sigma_translation_m;
   covariance.diagonal().tail<3>().array() +=

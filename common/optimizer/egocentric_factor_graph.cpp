@@ -5,7 +5,9 @@
 #include <ceres/problem.h>
 #include <ceres/solver.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 #include "factors/imu_factor.hpp"
@@ -20,6 +22,27 @@ Matrix6d sqrt_information(double sigma_m, double sigma_rad) {
   Vector6d d;
   d << Eigen::Vector3d::Constant(1.0 / sigma_m), Eigen::Vector3d::Constant(1.0 / sigma_rad);
   return d.asDiagonal();
+}
+
+// A scan-match edge's square-root information: the base sigmas, but per block (translation,
+// rotation) in no eigen-direction more than the registration's information holds, shared
+// among the `edges` edges that one registration becomes.
+Matrix6d scan_match_sqrt_information(double sigma_m, double sigma_rad,
+                                     const std::optional<Matrix6d>& measured, size_t edges) {
+  if (!measured) {
+    return sqrt_information(sigma_m, sigma_rad);
+  }
+  Matrix6d root = Matrix6d::Zero();
+  for (const int block : {0, 3}) {
+    const double base = 1.0 / std::pow(block == 0 ? sigma_m : sigma_rad, 2);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(measured->block<3, 3>(block, block) /
+                                                               static_cast<double>(edges));
+    const Eigen::Vector3d root_values =
+        eigen.eigenvalues().cwiseMax(0.0).cwiseMin(base).cwiseSqrt();
+    root.block<3, 3>(block, block) =
+        eigen.eigenvectors() * root_values.asDiagonal() * eigen.eigenvectors().transpose();
+  }
+  return root;
 }
 
 }  // namespace
@@ -115,14 +138,16 @@ int EgocentricFactorGraph::add_scan_match(Node& node, const ScanMatch& match) {
   const auto loss = std::make_shared<ceres::CauchyLoss>(config_.scan_match_loss_scale);
   const StateBlock current{node.pose.data(), 7, true};
   if (config_.direct || match.prior_nodes.empty()) {
-    add_factor(
-        PosePriorFactor::create(match.T_map_body, sqrt_information(config_.scan_match_sigma_m,
-                                                                   config_.scan_match_sigma_rad)),
-        loss, {current});
+    add_factor(PosePriorFactor::create(
+                   match.T_map_body,
+                   scan_match_sqrt_information(config_.scan_match_sigma_m,
+                                               config_.scan_match_sigma_rad, match.information, 1)),
+               loss, {current});
     return 1;
   }
   // Eq. 8, the propagation model: edges T_i^-1 T_r from the N_d nearest prior nodes, each
   // with the base noise scaled by the fitness against prior keyframe i.
+  const size_t edges = std::min(match.prior_nodes.size(), static_cast<size_t>(config_.prior_nodes));
   int added = 0;
   for (const PriorNodeMatch& p : match.prior_nodes) {
     if (added >= config_.prior_nodes) {
@@ -139,10 +164,12 @@ int EgocentricFactorGraph::add_scan_match(Node& node, const ScanMatch& match) {
     }
     const double scale =
         config_.unweighted ? 1.0 : std::max(1.0, p.fitness_m / config_.fitness_reference_m);
-    add_factor(RelativePoseFactor::create(p.T_map_keyframe.inverse() * match.T_map_body,
-                                          sqrt_information(scale * config_.scan_match_sigma_m,
-                                                           scale * config_.scan_match_sigma_rad)),
-               loss, {prior->block(), current});
+    add_factor(
+        RelativePoseFactor::create(p.T_map_keyframe.inverse() * match.T_map_body,
+                                   scan_match_sqrt_information(scale * config_.scan_match_sigma_m,
+                                                               scale * config_.scan_match_sigma_rad,
+                                                               match.information, edges)),
+        loss, {prior->block(), current});
     ++added;
   }
   return added;

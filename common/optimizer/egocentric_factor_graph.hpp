@@ -128,6 +128,10 @@ struct ScanMatch {
   Eigen::Isometry3d T_map_body = Eigen::Isometry3d::Identity();
   std::vector<PriorNodeMatch> prior_nodes;  // nearest first, at most N_d used
   double fitness_m = 0.0;                   // against the submap
+  // The registration's own information (right perturbation of T_map_body, independent
+  // matches): in no direction are the factors more certain than it, so a degenerate
+  // registration (a corridor) adds little along its weak axis. None: the base noise alone.
+  std::optional<Matrix6d> information;
 };
 
 struct GraphKeyframe {

@@ -14,10 +14,13 @@ void LocalizerConfig::validate() const {
       overlap_submaps < 1 || !(target_radius_m > 0) || max_query_points < 100 ||
       !(max_fitness_m > 0) || !(min_matched_ratio >= 0 && min_matched_ratio <= 1) ||
       !(max_correction_m > 0) || !(max_correction_rad > 0) || !(prior_fitness_radius_m > 0) ||
-      !(fitness_cap_m > 0) || !(target_keep_m > target_radius_m)) {
+      !(fitness_cap_m > 0) || !(target_prefetch_m >= 0) || target_prefetch_points < 1 ||
+      !(target_keep_m > target_radius_m + target_prefetch_m) || independent_correspondences < 1) {
     throw std::invalid_argument(
         "the localizer's distances and bounds must be positive, overlap_threshold and "
-        "min_matched_ratio in [0, 1], max_query_points at least 100");
+        "min_matched_ratio in [0, 1], max_query_points at least 100, "
+        "independent_correspondences and target_prefetch_points at least 1, target_keep_m "
+        "beyond target_radius_m + target_prefetch_m");
   }
   stages.validate();
   registration.validate();
@@ -29,7 +32,9 @@ Localizer::Localizer(const LocalizerConfig& config, const MapIndex& index,
       index_(&index),
       targets_(targets),
       graph_(config.graph),
-      target_(config.stages.voxel_m, config.target_radius_m, config.target_keep_m) {
+      target_(config.stages.voxel_m, config.target_radius_m, config.target_prefetch_m,
+              static_cast<size_t>(std::max(1, config.target_prefetch_points)),
+              config.target_keep_m) {
   config_.validate();
 }
 
@@ -62,7 +67,9 @@ double Localizer::overlap(const Eigen::Vector3d& position) const {
 std::optional<ScanMatch> Localizer::scan_match(const LocalizerKeyframe& keyframe,
                                                const Eigen::Isometry3d& T_predicted,
                                                LocalizerOutput& out) {
-  out.missing_submaps = target_.update(*index_, targets_, T_predicted.translation());
+  SlidingTarget::Update update = target_.update(*index_, targets_, T_predicted.translation());
+  out.missing_submaps = std::move(update.missing);
+  out.upcoming_submaps = std::move(update.upcoming);
   if (!out.missing_submaps.empty()) {
     out.gate = "waiting for " + std::to_string(out.missing_submaps.size()) + " submap(s)";
     return std::nullopt;
@@ -83,18 +90,23 @@ std::optional<ScanMatch> Localizer::scan_match(const LocalizerKeyframe& keyframe
   out.degenerate = result.degenerate;
   const double matched =
       points.empty() ? 0.0 : static_cast<double>(result.correspondences) / points.size();
-  const Eigen::Isometry3d correction = T_predicted.inverse() * T;
-  // Gates: a registration that did not converge on the map, or that would pull the
-  // estimate along a direction it cannot see (a corridor), is not a measurement.
-  if (result.degenerate) {
-    out.gate = "degenerate registration";
-  } else if (!(result.rms_residual_m <= config_.max_fitness_m)) {
+  // A degenerate registration (a corridor) may slide along its weak axis: that part of the
+  // correction is not gated (its factors carry only the little the registration knows
+  // there, ScanMatch::information).
+  const Matrix6d constrained =
+      result.degenerate
+          ? constrained_directions(result.information, config_.registration.degeneracy_ratio)
+          : Matrix6d::Identity();
+  const Vector6d correction = constrained * se3::minus(T, T_predicted);
+  // Gates: a registration that did not converge on the map, or that moves the estimate
+  // further than the odometry can have drifted, is not a measurement.
+  if (!(result.rms_residual_m <= config_.max_fitness_m)) {
     out.gate = "fitness " + std::to_string(result.rms_residual_m) + " m";
   } else if (matched < config_.min_matched_ratio) {
     out.gate = "matched " + std::to_string(matched);
-  } else if (correction.translation().norm() > config_.max_correction_m ||
-             se3::rotation_angle(correction) > config_.max_correction_rad) {
-    out.gate = "correction " + std::to_string(correction.translation().norm()) + " m";
+  } else if (correction.head<3>().norm() > config_.max_correction_m ||
+             correction.tail<3>().norm() > config_.max_correction_rad) {
+    out.gate = "correction " + std::to_string(correction.head<3>().norm()) + " m";
   }
   if (!out.gate.empty()) {
     return std::nullopt;
@@ -102,6 +114,7 @@ std::optional<ScanMatch> Localizer::scan_match(const LocalizerKeyframe& keyframe
   ScanMatch match;
   match.T_map_body = T;
   match.fitness_m = result.rms_residual_m;
+  match.information = result.independent_information(config_.independent_correspondences);
   // Eq. 8, propagation: the N_d nearest prior nodes (Tree_p), each with the fitness of the
   // keyframe's points around it.
   const Eigen::Isometry3f Tf = T.cast<float>();

@@ -30,12 +30,19 @@ struct LocalizerConfig {
   double overlap_half_side_m = 10.0;
   double overlap_threshold = 0.7;
   int overlap_submaps = 3;
-  // Scan match: the submaps within target_radius_m, registered coarse to fine. Their voxels
-  // are kept within target_keep_m of the robot: beyond the radius by a submap's reach (20 m
+  // Scan match: the submaps within target_radius_m, registered coarse to fine; those within
+  // target_prefetch_m beyond are inserted ahead, target_prefetch_points a keyframe
+  // (SlidingTarget). bench_efg, keyframe-to-POSE median / p99: HDL-32E campus C 21.2 / 44.6
+  // ms at 15 m and 5000 points (19.2 / 56.0 without prefetching, 28.6 / 53.6 at 30 m and
+  // 15 000 points); OS1-64 campus B 14.1 / 53.7 ms at 30 m and 15 000 (76-92 ms p99
+  // without). Their
+  // voxels are kept within target_keep_m of the robot: beyond both by a submap's reach (20 m
   // of keyframes, 100 m of LiDAR range, SlidingTarget's hysteresis), so that memory stays
   // bounded and no submap still in use loses points.
   double target_radius_m = 35.0;
-  double target_keep_m = 170.0;
+  double target_prefetch_m = 15.0;
+  int target_prefetch_points = 5000;
+  double target_keep_m = 185.0;
   RegistrationStages stages{{1.0, 0.5}, {1.5, 0.6}, {0.15, 0.06}};
   // Per stage. 2000 against 3000: the same ATE on campus C (0.044 m), keyframe-to-POSE
   // latency 19.9 / 51.5 ms instead of 25.0 / 61.6 ms (median / p99, bench_efg).
@@ -52,6 +59,9 @@ struct LocalizerConfig {
   double min_matched_ratio = 0.25;  // of the query's points matched to a map plane
   double max_correction_m = 1.5;    // from the prediction
   double max_correction_rad = 0.1;
+  // The registration's information as if from this many independent matches (they share
+  // planes): the scan-match factors are never more certain than it (PoseInitializer's value).
+  int independent_correspondences = 200;
   // f_b^i of the scan-match factors (Eq. 8): RMS distance (capped at fitness_cap_m) of the
   // registered keyframe's points within prior_fitness_radius_m of prior keyframe i to the map.
   double prior_fitness_radius_m = 20.0;
@@ -69,6 +79,8 @@ struct LocalizerConfig {
     v("overlap_threshold", overlap_threshold);
     v("overlap_submaps", overlap_submaps);
     v("target_radius_m", target_radius_m);
+    v("target_prefetch_m", target_prefetch_m);
+    v("target_prefetch_points", target_prefetch_points);
     v("target_keep_m", target_keep_m);
     v("stages", stages);
     v("max_query_points", max_query_points);
@@ -77,6 +89,7 @@ struct LocalizerConfig {
     v("min_matched_ratio", min_matched_ratio);
     v("max_correction_m", max_correction_m);
     v("max_correction_rad", max_correction_rad);
+    v("independent_correspondences", independent_correspondences);
     v("prior_fitness_radius_m", prior_fitness_radius_m);
     v("fitness_cap_m", fitness_cap_m);
     v("scan_to_map_only", scan_to_map_only);
@@ -104,7 +117,8 @@ struct LocalizerOutput {
   std::string gate;        // why a registration did not, if it did not
   double fitness_m = 0.0;  // of the registration
   bool degenerate = false;
-  std::vector<int64_t> missing_submaps;  // the scan match waited for these
+  std::vector<int64_t> missing_submaps;   // the scan match waited for these
+  std::vector<int64_t> upcoming_submaps;  // just beyond reach and not there: fetch them
   GraphEstimate graph;
   double scan_match_ms = 0.0;
   double total_ms = 0.0;

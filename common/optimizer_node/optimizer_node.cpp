@@ -184,8 +184,10 @@ void OptimizerNode::optimize(const LocalizerKeyframe& keyframe, bool publish) {
   }
   const LocalizerOutput out = localizer_->add(keyframe);
   ++counters_.optimized;
-  if (!out.missing_submaps.empty()) {
-    map_.request_submaps(out.missing_submaps, node::wall_clock_us());
+  if (!out.missing_submaps.empty() || !out.upcoming_submaps.empty()) {
+    std::vector<int64_t> fetch = out.missing_submaps;  // the ones waited for first
+    fetch.insert(fetch.end(), out.upcoming_submaps.begin(), out.upcoming_submaps.end());
+    map_.request_submaps(fetch, node::wall_clock_us());
   }
   if (out.scan_matched) {
     ++counters_.scan_matched;

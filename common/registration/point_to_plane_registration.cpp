@@ -123,7 +123,33 @@ double eigen_ratio(const Eigen::Matrix3d& block) {
   const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(block).eigenvalues();
   return ev.maxCoeff() > 0.0 ? ev.minCoeff() / ev.maxCoeff() : 0.0;
 }
+// The projector onto the eigenvectors of a 3x3 block with eigenvalue >= ratio * largest.
+Eigen::Matrix3d constrained_block(const Eigen::Matrix3d& block, double ratio) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(block);
+  const double largest = eigen.eigenvalues().maxCoeff();
+  Eigen::Matrix3d projector = Eigen::Matrix3d::Zero();
+  for (int k = 0; k < 3; ++k) {
+    if (largest > 0.0 && eigen.eigenvalues()(k) >= ratio * largest) {
+      projector += eigen.eigenvectors().col(k) * eigen.eigenvectors().col(k).transpose();
+    }
+  }
+  return projector;
+}
 }  // namespace
+
+Matrix6d RegistrationResult::independent_information(int independent) const {
+  return information /
+         std::max(1.0, static_cast<double>(correspondences) / static_cast<double>(independent));
+}
+
+Matrix6d constrained_directions(const Matrix6d& information, double degeneracy_ratio) {
+  Matrix6d projector = Matrix6d::Zero();
+  projector.topLeftCorner<3, 3>() =
+      constrained_block(information.topLeftCorner<3, 3>(), degeneracy_ratio);
+  projector.bottomRightCorner<3, 3>() =
+      constrained_block(information.bottomRightCorner<3, 3>(), degeneracy_ratio);
+  return projector;
+}
 
 void RegistrationConfig::validate() const {
   if (max_iterations < 1 || max_associations < 1 || threads < 1) {

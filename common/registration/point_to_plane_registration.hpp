@@ -107,6 +107,10 @@ struct RegistrationResult {
   // `information` (the degeneracy measure).
   double translation_eigen_ratio = 0.0;
   double rotation_eigen_ratio = 0.0;
+
+  // `information` as if from at most `independent` independent matches: the matches share
+  // planes, so counting each as independent overstates what the pose is known to.
+  Matrix6d independent_information(int independent) const;
 };
 
 // A plane n.x + d = 0 through neighbouring points, if they are planar enough.
@@ -117,6 +121,12 @@ struct Plane {
 };
 std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double max_thickness_m,
                                double min_planarity);
+
+// The directions a registration determines: the projector (6x6, right perturbation) onto the
+// eigenvectors of the information's translation and rotation blocks whose eigenvalue is at
+// least degeneracy_ratio of the block's largest. Identity for a well-constrained
+// registration; in a corridor it drops the tunnel's axis.
+Matrix6d constrained_directions(const Matrix6d& information, double degeneracy_ratio);
 
 // Registers source points (source frame; measured from sensor_origin_source) to the
 // target map, starting at T_target_source_guess.

@@ -1,6 +1,7 @@
 #include "voxel_map/voxel_hash_map.hpp"
 
 #include <cmath>
+#include <span>
 #include <stdexcept>
 
 namespace liloc {
@@ -26,10 +27,11 @@ Eigen::Vector3i VoxelHashMap::index_of(const Eigen::Vector3f& p) const {
                          static_cast<int>(std::floor(p.z() * inv_voxel_)));
 }
 
-void VoxelHashMap::insert(const std::vector<Eigen::Vector3f>& points) {
+void VoxelHashMap::insert(const Eigen::Vector3f* points, size_t count) {
   const float min_sq =
       static_cast<float>(config_.min_point_spacing_m * config_.min_point_spacing_m);
-  for (const Eigen::Vector3f& p : points) {
+  for (size_t k = 0; k < count; ++k) {
+    const Eigen::Vector3f& p = points[k];
     const auto [index, inserted] = index_.insert(voxel_key(index_of(p)));
     if (inserted) {
       voxels_.emplace_back();

@@ -47,7 +47,8 @@ class VoxelHashMap {
 
   // Adds points (map frame); a point is dropped if its voxel is full or holds a point
   // closer than min_point_spacing_m.
-  void insert(const std::vector<Eigen::Vector3f>& points);
+  void insert(const std::vector<Eigen::Vector3f>& points) { insert(points.data(), points.size()); }
+  void insert(const Eigen::Vector3f* points, size_t count);
 
   // The k nearest points within max_distance_m of q among the 8 voxels around q: exact
   // within voxel_m / 2, approximate beyond.

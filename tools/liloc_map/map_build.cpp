@@ -44,14 +44,30 @@ struct DriveResult {
   std::vector<MapKeyframe> odometry_keyframes;  // as the odometry had them (before loops)
   OdometryCounters counters;
   int64_t scans = 0;
+  std::vector<int64_t> without_reference;  // keyframe times (us) the reference did not cover
 };
 
+// Reference poses (RTK/INS, a simulator's truth) at most this far apart are interpolated.
+constexpr double kReferenceMaxGapS = 1.5;
+
+// With a reference trajectory, each keyframe keeps the odometry's deskewed cloud but takes
+// its pose from the reference; keyframes outside the reference are left out.
 DriveResult run_odometry(const SystemConfig& config, const std::string& log_path,
-                         const std::string& robot_id, CentralSessionBuilder& builder) {
+                         const std::string& robot_id, const std::optional<Trajectory>& reference,
+                         CentralSessionBuilder& builder) {
   DriveResult drive;
   const LogDrive run = run_odometry_on_log(
       log_path, robot_id, config.odometry_node(), config.transport, [&](const Keyframe& keyframe) {
-        builder.add(keyframe);
+        if (!reference) {
+          builder.add(keyframe);
+        } else if (const std::optional<Eigen::Isometry3d> T_world_body =
+                       reference->at(keyframe.utime_us * 1e-6, kReferenceMaxGapS)) {
+          Keyframe posed = keyframe;
+          posed.T_odom_body = *T_world_body;
+          builder.add(posed);
+        } else {
+          drive.without_reference.push_back(keyframe.utime_us);
+        }
         MapKeyframe kf;
         kf.utime_us = keyframe.utime_us;
         kf.T_map_body = keyframe.T_odom_body;
@@ -67,6 +83,11 @@ DriveResult run_odometry(const SystemConfig& config, const std::string& log_path
   }
   drive.scans = run.sweeps;
   drive.counters = run.counters;
+  if (reference && drive.odometry_keyframes.size() == drive.without_reference.size()) {
+    throw std::runtime_error("none of the " + std::to_string(drive.without_reference.size()) +
+                             " keyframes of " + log_path +
+                             " lies within the reference poses' time span");
+  }
   if (drive.odometry_keyframes.empty()) {
     throw std::runtime_error("no keyframes from " + log_path + ": does it hold " +
                              transport::robot_channel(robot_id, config.channels.lidar) + " and " +
@@ -125,6 +146,7 @@ int build_map(int argc, const char* const* argv) {
   std::string ground_truth_path;
   std::string json_path;
   std::string map_id = "liloc-map";
+  std::string poses_path;
   bool no_loops = false;
   CommandLine cli("liloc_map build",
                   "Builds a map directory (the central session) from a recorded drive: "
@@ -136,6 +158,10 @@ int build_map(int argc, const char* const* argv) {
   cli.add_option("json", &json_path, "write the report as JSON here");
   cli.add_option("map-id", &map_id, "the map's id");
   cli.add_flag("no-loops", &no_loops, "odometry only: do not close loops");
+  cli.add_option("poses", &poses_path,
+                 "TUM file of T_world_body (RTK/INS, a simulator's truth): the keyframes take "
+                 "their poses from it instead of the odometry, no loops are closed, the map "
+                 "frame is its world frame");
   return run_program(cli, "liloc_map", argc, argv, [&]() -> int {
     const SystemConfig config = load_program_config<SystemConfig>(config_path);
     require_new_map_directory(args[1]);
@@ -143,11 +169,26 @@ int build_map(int argc, const char* const* argv) {
     if (!ground_truth_path.empty()) {
       ground_truth = read_tum(ground_truth_path);  // fail early on a bad file
     }
+    std::optional<Trajectory> reference;
+    if (!poses_path.empty()) {
+      reference = read_tum(poses_path);
+      if (reference->empty()) {
+        throw std::invalid_argument(poses_path + " holds no poses");
+      }
+    }
 
     const auto start = std::chrono::steady_clock::now();
     CentralSessionBuilder builder =
-        central_session_builder(config, config.map_builder.session, !no_loops);
-    const DriveResult drive = run_odometry(config, args[0], robot_id, builder);
+        central_session_builder(config, config.map_builder.session, !no_loops && !reference);
+    const DriveResult drive = run_odometry(config, args[0], robot_id, reference, builder);
+    if (!drive.without_reference.empty()) {
+      spdlog::warn(
+          "{} of {} keyframes left out: {} has no poses at most {} s apart around them "
+          "(first at {:.3f} s, last at {:.3f} s)",
+          drive.without_reference.size(), drive.odometry_keyframes.size(), poses_path,
+          kReferenceMaxGapS, drive.without_reference.front() * 1e-6,
+          drive.without_reference.back() * 1e-6);
+    }
     const double odometry_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
