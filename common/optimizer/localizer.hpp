@@ -34,7 +34,7 @@ struct LocalizerConfig {
   // target_prefetch_m beyond are inserted ahead, target_prefetch_points a keyframe
   // (SlidingTarget). bench_efg, keyframe-to-POSE median / p99: HDL-32E campus C 21.2 / 44.6
   // ms at 15 m and 5000 points (19.2 / 56.0 without prefetching, 28.6 / 53.6 at 30 m and
-  // 15 000 points); OS1-64 campus B 14.1 / 53.7 ms at 30 m and 15 000 (76-92 ms p99
+  // 15 000 points); OS1-64 campus B 10.1 / 46.9 ms, C 17.8 / 48.6 ms (p99 77-92 ms
   // without). Their
   // voxels are kept within target_keep_m of the robot: beyond both by a submap's reach (20 m
   // of keyframes, 100 m of LiDAR range, SlidingTarget's hysteresis), so that memory stays
