@@ -26,17 +26,21 @@ void LocalizerConfig::validate() const {
   registration.validate();
 }
 
+namespace {
+const LocalizerConfig& validated(const LocalizerConfig& config) {
+  config.validate();
+  return config;
+}
+}  // namespace
+
 Localizer::Localizer(const LocalizerConfig& config, const MapIndex& index,
                      const SubmapTargets& targets)
-    : config_(config),
+    : config_(validated(config)),
       index_(&index),
       targets_(targets),
       graph_(config.graph),
       target_(config.stages.voxel_m, config.target_radius_m, config.target_prefetch_m,
-              static_cast<size_t>(std::max(1, config.target_prefetch_points)),
-              config.target_keep_m) {
-  config_.validate();
-}
+              static_cast<size_t>(config.target_prefetch_points), config.target_keep_m) {}
 
 void Localizer::start(const LocalizerKeyframe& keyframe, const Eigen::Isometry3d& T_map_body,
                       const Matrix6d& covariance) {

@@ -47,9 +47,6 @@ struct DriveResult {
   std::vector<int64_t> without_reference;  // keyframe times (us) the reference did not cover
 };
 
-// Reference poses (RTK/INS, a simulator's truth) at most this far apart are interpolated.
-constexpr double kReferenceMaxGapS = 1.5;
-
 // With a reference trajectory, each keyframe keeps the odometry's deskewed cloud but takes
 // its pose from the reference; keyframes outside the reference are left out.
 DriveResult run_odometry(const SystemConfig& config, const std::string& log_path,
@@ -61,7 +58,7 @@ DriveResult run_odometry(const SystemConfig& config, const std::string& log_path
         if (!reference) {
           builder.add(keyframe);
         } else if (const std::optional<Eigen::Isometry3d> T_world_body =
-                       reference->at(keyframe.utime_us * 1e-6, kReferenceMaxGapS)) {
+                       reference->at(keyframe.utime_us * 1e-6, kReferencePoseMaxGapS)) {
           Keyframe posed = keyframe;
           posed.T_odom_body = *T_world_body;
           builder.add(posed);
@@ -186,7 +183,7 @@ int build_map(int argc, const char* const* argv) {
           "{} of {} keyframes left out: {} has no poses at most {} s apart around them "
           "(first at {:.3f} s, last at {:.3f} s)",
           drive.without_reference.size(), drive.odometry_keyframes.size(), poses_path,
-          kReferenceMaxGapS, drive.without_reference.front() * 1e-6,
+          kReferencePoseMaxGapS, drive.without_reference.front() * 1e-6,
           drive.without_reference.back() * 1e-6);
     }
     const double odometry_s =

@@ -13,6 +13,10 @@ int build_map(int argc, const char* const* argv);
 int build_map_from_poses(int argc, const char* const* argv);
 int build_map_from_pcd(int argc, const char* const* argv);
 
+// Reference poses at most this far apart are interpolated (a 1 Hz pose file still is):
+// build --poses, and build-from-poses' --max-gap-s default.
+constexpr double kReferencePoseMaxGapS = 1.5;
+
 // Throws std::invalid_argument if the directory already holds a map: never overwritten.
 void require_new_map_directory(const std::string& directory);
 

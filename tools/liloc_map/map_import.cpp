@@ -43,7 +43,7 @@ int build_map_from_poses(int argc, const char* const* argv) {
   std::string sequence;
   std::string poses_path;
   std::string map_id = "liloc-map";
-  double max_gap_s = 1.5;     // a 1 Hz pose file still interpolates
+  double max_gap_s = kReferencePoseMaxGapS;
   double tolerance_s = 1e-3;  // a scan this close to a pose takes it
   CommandLine cli("liloc_map build-from-poses",
                   "Builds a map directory from LiDAR scans with known poses: a KITTI odometry "
