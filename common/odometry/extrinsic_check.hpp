@@ -39,6 +39,9 @@ struct ExtrinsicCheckConfig {
   // Time offsets searched, and the step.
   double max_offset_s = 0.1;
   double offset_step_s = 0.001;
+  // The offset is also found in this many consecutive parts of the motion; it is named only
+  // if beyond twice their spread.
+  int offset_parts = 4;
   // Warn beyond these.
   double warn_rotation_deg = 3.0;
   double warn_offset_s = 0.01;
@@ -57,6 +60,7 @@ struct ExtrinsicCheckConfig {
     v("interval_s", interval_s);
     v("max_offset_s", max_offset_s);
     v("offset_step_s", offset_step_s);
+    v("offset_parts", offset_parts);
     v("warn_rotation_deg", warn_rotation_deg);
     v("warn_offset_s", warn_offset_s);
     v("gyro_sigma_rps", gyro_sigma_rps);
@@ -69,9 +73,11 @@ struct ExtrinsicEstimate {
   // Rotation from the configured LiDAR-derived body frame F into the IMU's body frame:
   // the configured R_body_lidar should be R_BF * R_body_lidar.
   Eigen::Matrix3d R_BF = Eigen::Matrix3d::Identity();
-  double rotation_error_deg = 0.0;   // angle of R_BF
-  double rotation_sigma_deg = 0.0;   // its 1-sigma uncertainty (largest axis)
-  double time_offset_error_s = 0.0;  // add this to lidar_time_offset_s
+  double rotation_error_deg = 0.0;          // angle of R_BF
+  double rotation_sigma_deg = 0.0;          // its 1-sigma uncertainty (largest axis)
+  double time_offset_error_s = 0.0;         // add this to lidar_time_offset_s
+  std::vector<double> time_offset_parts_s;  // found in each part of the motion
+  double time_offset_spread_s = 0.0;        // the parts' standard deviation about it
   Eigen::Vector3d gyro_bias_rps = Eigen::Vector3d::Zero();
   double gravity_mps2 = 0.0;  // the fitted gravity's norm (9.8 if consistent)
   double gyro_rms_rps = 0.0;  // residuals at the estimate
