@@ -369,6 +369,53 @@ TEST(Odometry, LidarOnlyModeBridgesPausesOfSeconds) {
   }
 }
 
+// Without an IMU, a pause of 4 s after which the vehicle is 3.6 m higher than before (every
+// later sweep's points 3.6 m lower in the body frame: it drove up a ramp, say), which no
+// velocity before the pause predicts. The level search keeps the predicted height, and
+// registration from there does not reach the ground; each start's height is searched, so
+// the sweeps after the pause are placed 3.6 m up. (Searched within 1 cm only, they were
+// placed 1.0 m up.)
+TEST(Odometry, LidarOnlySearchAfterAPauseFindsTheHeight) {
+  const Recording& r = campus_drive();
+  const int64_t t0 = r.config.start_utime;
+  const double climb_m = 3.6;
+  // The largest error, after the pause, of the climb the estimate shows.
+  const auto climb_error_m = [&](const OdometryConfig& config) {
+    LidarInertialOdometry odometry(config);
+    const Replayed run = replay(r, odometry, [&](std::variant<ImuSample, LidarScan>& e) {
+      LidarScan* scan = std::get_if<LidarScan>(&e);
+      const double t = scan == nullptr ? 0.0 : (scan->utime_us - t0) * 1e-6;
+      if (t > 20.0 && t < 24.0) {
+        return false;
+      }
+      if (t >= 24.0) {
+        for (LidarPoint& p : scan->points) {
+          p.position_m.z() -= static_cast<float>(climb_m);
+        }
+      }
+      return true;
+    });
+    const Eigen::Isometry3d T_truth_odom =
+        *r.ground_truth.at(run.estimates.front().utime_us * 1e-6, 0.5);
+    double before = 0.0, worst = 0.0;
+    for (const OdometryEstimate& e : run.estimates) {
+      const double t = (e.utime_us - t0) * 1e-6;
+      const double height_error = (T_truth_odom * e.T_odom_body).translation().z() -
+                                  r.ground_truth.at(e.utime_us * 1e-6, 0.5)->translation().z();
+      if (t < 24.0) {
+        before = height_error;
+      } else if (t < 40.0) {
+        worst = std::max(worst, std::abs(height_error - before - climb_m));
+      }
+    }
+    return worst;
+  };
+  OdometryConfig config = config_for(r, false);
+  EXPECT_LT(climb_error_m(config), 0.3);
+  config.search_max_z_m = 0.01;
+  EXPECT_GT(climb_error_m(config), 1.0);
+}
+
 // After a pause, a sweep that fits no part of the local map (its points scaled threefold:
 // a scene that exists nowhere) is not forced into it: the estimate says it is lost and
 // why, the local map restarts, and the sweeps after it track again.

@@ -192,6 +192,18 @@ Row run_case(const OpenedMap& map, const Eigen::Isometry3d& T_map_world, const S
     return row;
   }
   row.init = init->method + " at keyframe " + std::to_string(first);
+  if (const std::optional<Eigen::Isometry3d> T = truth_in_map(session.keyframes[first])) {
+    spdlog::debug("{} {} {}: initialized ({}) {:.3f} m from the truth: {}", world, lidar,
+                  session_name, row.init,
+                  (init->best->T_map_body.translation() - T->translation()).norm(), init->reason);
+    for (const InitCandidate& c : init->candidates) {
+      spdlog::debug(
+          "  candidate {:.3f} m from the truth: fitness {:.3f} overlap {:.2f} inliers "
+          "{:.2f} degenerate {} {}",
+          (c.T_map_body.translation() - T->translation()).norm(), c.fitness_m, c.overlap,
+          c.inlier_ratio, c.degenerate, c.rejected);
+    }
+  }
   Localizer localizer(variant_config(full, variant), map.index, targets);
   const auto to_localizer = [&](size_t k) {
     const Keyframe& kf = session.keyframes[k];
@@ -233,6 +245,11 @@ Row run_case(const OpenedMap& map, const Eigen::Isometry3d& T_map_world, const S
                                                 map.index.submaps().submap(hit.id)->bounds));
     }
     rlm_truth.push_back(overlap >= full.overlap_threshold);
+    spdlog::debug("keyframe {}: {} overlap {:.2f} (truth {:.2f}), error {:.3f} m, {}", k,
+                  rlm.back() ? "RLM" : "ILM", out.overlap, overlap,
+                  (out.T_map_body.translation() - T_truth->translation()).norm(),
+                  out.scan_matched ? "scan matched, fitness " + std::to_string(out.fitness_m)
+                                   : "gate: " + out.gate);
     jfgo_ms.push_back(out.graph.solve_ms);
     latency_ms.push_back(out.total_ms);
     const Eigen::Isometry3d T_map_odom = localizer.T_map_odom();

@@ -112,6 +112,7 @@ void OdometryConfig::validate() const {
                     {"search_beyond_m", search_beyond_m},
                     {"search_max_xy_m", search_max_xy_m},
                     {"search_max_yaw_rad", search_max_yaw_rad},
+                    {"search_max_z_m", search_max_z_m},
                     {"search_inlier_m", search_inlier_m},
                     {"search_min_inlier_ratio", search_min_inlier_ratio},
                     {"search_confirmed_inlier_ratio", search_confirmed_inlier_ratio},
@@ -644,32 +645,54 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
   // Wider windows in coarser cells: at most 21 x 21 shifts per yaw.
   CorrelativeSearchConfig search = config_.search;
   search.cell_m = std::max(search.cell_m, window.half_xy_m / 10.0);
-  std::vector<Eigen::Isometry3d> starts{T_local_body()};
+  // Scored by the points that land within search_inlier_m of a map point: along a street,
+  // a start shifted by a metre finds as many planes (its walls) but not its poles and
+  // corners.
+  const auto inliers = [&](const Eigen::Isometry3d& T, const std::vector<Eigen::Vector3f>& points) {
+    const Eigen::Isometry3f Tf = T.cast<float>();
+    const float radius = static_cast<float>(config_.search_inlier_m);
+    int count = 0;
+    for (const Eigen::Vector3f& p : points) {
+      count += map_.nearest<1>(Tf * p, radius).count > 0;
+    }
+    return count;
+  };
+  // The search is level (x, y, yaw at the predicted height): over a pause of seconds on
+  // rolling ground the predicted height is off by metres (the pre-pause velocity carried up
+  // or down a slope), beyond what registration's radius reaches, and a sweep registered a
+  // few metres high tilted to meet the ground (OS1-64, LiDAR-only, 5 s gaps: 3 m and 2.6
+  // degrees). Each start's height is searched first, in steps of search_inlier_m.
+  const std::vector<Eigen::Vector3f> probe = strided(source, config_.search.max_points);
+  const double max_dz = std::min(reach_m, config_.search_max_z_m);
+  const auto at_best_height = [&](Eigen::Isometry3d T) {
+    const Eigen::Vector3d start = T.translation();
+    int best = -1;
+    double best_dz = 0.0;
+    for (double dz = -max_dz; dz <= max_dz + 1e-9; dz += config_.search_inlier_m) {
+      T.translation() = start + Eigen::Vector3d(0.0, 0.0, dz);
+      const int n = inliers(T, probe);
+      if (n > best || (n == best && std::abs(dz) < std::abs(best_dz))) {
+        best = n;
+        best_dz = dz;
+      }
+    }
+    T.translation() = start + Eigen::Vector3d(0.0, 0.0, best_dz);
+    return T;
+  };
+  std::vector<Eigen::Isometry3d> starts{at_best_height(T_local_body())};
   for (const ScoredPose& peak :
        CorrelativeSearch(map_.points(), search).search(source, R_level_body, window)) {
-    starts.push_back(peak.T_map_body);
+    starts.push_back(at_best_height(peak.T_map_body));
   }
   // Each start is within a search cell of its answer, so registration refines it as a well
   // predicted sweep; the prediction's wide prior still holds what the scan leaves weak (a
   // street's length).
   const RegistrationConfig refine = registration_config(search.cell_m);
-  // Scored by the points that land within search_inlier_m of a map point: along a street,
-  // a start shifted by a metre finds as many planes (its walls) but not its poles and
-  // corners.
-  const auto inliers = [&](const Eigen::Isometry3d& T) {
-    const Eigen::Isometry3f Tf = T.cast<float>();
-    const float radius = static_cast<float>(config_.search_inlier_m);
-    int count = 0;
-    for (const Eigen::Vector3f& p : source) {
-      count += map_.nearest<1>(Tf * p, radius).count > 0;
-    }
-    return count;
-  };
   std::vector<std::pair<RegistrationResult, int>> answers;
   for (const Eigen::Isometry3d& start : starts) {
     RegistrationResult r =
         register_point_to_plane(source, map_, start, prior, refine, T_body_lidar_.translation());
-    const int n = inliers(r.T_target_source);
+    const int n = inliers(r.T_target_source, source);
     answers.emplace_back(std::move(r), n);
   }
   const auto best =

@@ -105,6 +105,7 @@ struct OdometryConfig {
   double search_beyond_m = 4.0;
   double search_max_xy_m = 20.0;
   double search_max_yaw_rad = 1.6;
+  double search_max_z_m = 4.0;  // each start's height searched within this (and the reach)
   double search_inlier_m = 0.2;
   // Below this share of inliers the sweep cannot be placed (it sees what the local map
   // never did): the local map restarts from it at the predicted pose, and the estimate
@@ -189,6 +190,7 @@ struct OdometryConfig {
     v("search_beyond_m", search_beyond_m);
     v("search_max_xy_m", search_max_xy_m);
     v("search_max_yaw_rad", search_max_yaw_rad);
+    v("search_max_z_m", search_max_z_m);
     v("search_inlier_m", search_inlier_m);
     v("search_min_inlier_ratio", search_min_inlier_ratio);
     v("search_confirmed_inlier_ratio", search_confirmed_inlier_ratio);
