@@ -31,10 +31,10 @@
 #include <vector>
 
 #include "descriptor/polar_descriptor.hpp"
-#include "registration/correlative_search.hpp"
 #include "initializer/map_index.hpp"
 #include "math/se3.hpp"
 #include "pointcloud/point_cloud.hpp"
+#include "registration/correlative_search.hpp"
 #include "registration/point_to_plane_registration.hpp"
 #include "voxel_map/voxel_hash_map.hpp"
 
