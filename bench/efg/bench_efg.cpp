@@ -220,7 +220,7 @@ Row run_case(const OpenedMap& map, const Eigen::Isometry3d& T_map_world, const S
   localizer.start(to_localizer(first), init->best->T_map_body, init->best->covariance);
   std::vector<StampedPose>& estimate = row.estimate;
   std::vector<StampedPose>& truth = row.truth;
-  std::vector<double> jfgo_ms, latency_ms, path_m;
+  std::vector<double> jfgo_ms, latency_ms, path_m, scan_match_ms, covariance_ms, marginalization_ms;
   std::vector<bool> rlm, rlm_truth;
   Eigen::Isometry3d previous_T_map_odom = localizer.T_map_odom();
   for (size_t k = first + 1; k < session.keyframes.size(); ++k) {
@@ -251,6 +251,9 @@ Row run_case(const OpenedMap& map, const Eigen::Isometry3d& T_map_world, const S
                   out.scan_matched ? "scan matched, fitness " + std::to_string(out.fitness_m)
                                    : "gate: " + out.gate);
     jfgo_ms.push_back(out.graph.solve_ms);
+    scan_match_ms.push_back(out.scan_match_ms);
+    covariance_ms.push_back(out.graph.covariance_ms);
+    marginalization_ms.push_back(out.graph.marginalization_ms);
     latency_ms.push_back(out.total_ms);
     const Eigen::Isometry3d T_map_odom = localizer.T_map_odom();
     // How far the new correction moves the keyframe's pose in the map frame.
@@ -278,6 +281,15 @@ Row run_case(const OpenedMap& map, const Eigen::Isometry3d& T_map_world, const S
   row.rlm_share_truth = share(rlm_truth);
   score_switches(path_m, rlm, rlm_truth, row);
   row.jfgo_ms_median = eval::quantile(jfgo_ms, 0.5);
+  // Where the latency goes.
+  const auto stage = [](const std::vector<double>& ms) {
+    return fmt::format("{:.1f} / {:.1f}", eval::quantile(ms, 0.5), eval::quantile(ms, 0.99));
+  };
+  spdlog::info(
+      "{} {} {} {}: median / p99 ms: scan match {}, JFGO {}, covariance {}, "
+      "marginalization {}, total {}",
+      world, session_name, lidar, variant, stage(scan_match_ms), stage(jfgo_ms),
+      stage(covariance_ms), stage(marginalization_ms), stage(latency_ms));
   row.latency_ms_median = eval::quantile(latency_ms, 0.5);
   row.latency_ms_p99 = eval::quantile(latency_ms, 0.99);
   return row;
