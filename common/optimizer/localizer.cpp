@@ -71,7 +71,9 @@ double Localizer::overlap(const Eigen::Vector3d& position) const {
 std::optional<ScanMatch> Localizer::scan_match(const LocalizerKeyframe& keyframe,
                                                const Eigen::Isometry3d& T_predicted,
                                                LocalizerOutput& out) {
+  const Stopwatch target_watch;
   SlidingTarget::Update update = target_.update(*index_, targets_, T_predicted.translation());
+  out.target_ms = target_watch.ms();
   out.missing_submaps = std::move(update.missing);
   out.upcoming_submaps = std::move(update.upcoming);
   if (!out.missing_submaps.empty()) {

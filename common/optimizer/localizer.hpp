@@ -121,6 +121,7 @@ struct LocalizerOutput {
   std::vector<int64_t> upcoming_submaps;  // just beyond reach and not there: fetch them
   GraphEstimate graph;
   double scan_match_ms = 0.0;
+  double target_ms = 0.0;  // of scan_match_ms: the sliding target's upkeep
   double total_ms = 0.0;
 };
 

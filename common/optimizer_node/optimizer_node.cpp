@@ -312,6 +312,7 @@ void OptimizerNode::publish_status(int64_t now_us) {
     report.fitness = static_cast<float>(last_->fitness_m);
     report.degenerate = last_->degenerate;
     report.timings_ms = {{"scan_match", static_cast<float>(last_->scan_match_ms)},
+                         {"target", static_cast<float>(last_->target_ms)},
                          {"jfgo", static_cast<float>(last_->graph.solve_ms)},
                          {"covariance", static_cast<float>(last_->graph.covariance_ms)},
                          {"marginalization", static_cast<float>(last_->graph.marginalization_ms)},
