@@ -40,13 +40,18 @@ class GyroIntegral {
       }
     }
   }
-  // Integral from the first sample to t (IMU time, us), t within the samples.
+  // The mean rate over [t0, t1] (IMU time, us, within the samples).
+  Eigen::Vector3d mean(double t0_us, double t1_us) const {
+    return (at(t1_us) - at(t0_us)) / ((t1_us - t0_us) * 1e-6);
+  }
+
+ private:
+  // Integral from the first sample to t.
   Eigen::Vector3d at(double t_us) const {
     const size_t i = sample_at(imu_, t_us);
     return prefix_[i] + imu_[i].gyro_rps * ((t_us - imu_[i].utime_us) * 1e-6);
   }
 
- private:
   const std::vector<ImuSample>& imu_;
   std::vector<Eigen::Vector3d> prefix_;
 };
@@ -146,6 +151,74 @@ double grid_minimum(const std::vector<double>& costs, double first, double step)
     }
   }
   return best;
+}
+
+// A rotation the LiDAR registered over about interval_s (in the IMU's frame through the
+// fitted rotation), and the squared change of the gyro's rate across it.
+struct RotationInterval {
+  double t0_us, t1_us;
+  Eigen::Matrix3d dR_B;
+  double share;
+};
+
+struct OffsetFound {
+  double offset_us = 0.0;
+  std::vector<double> parts_us;                                // found in each part of the motion
+  double spread_us = std::numeric_limits<double>::infinity();  // the parts' about offset_us
+};
+
+// The clock offset on a grid over +-max_offset_s: the LiDAR's rotation over each interval
+// against the gyro's over the same interval shifted by the offset. An offset dt moves the
+// gyro's by dt times the change of the rate across the interval, which over a second of a
+// turn's entry is ten times what it is across one pair of sweeps, while the registered
+// rotation's error hardly grows (per pair of sweeps, the offset strayed up to 21 ms on
+// correct rigs). The residual is also summed over offset_parts consecutive parts of the
+// motion, each with an equal share of the rate changes: a clock offset shows in every
+// part, a lag that follows where the sweeps saw structure (no residual-based sigma knows
+// it) does not. Too few intervals (sweeps dropped): no offset, an infinite spread.
+OffsetFound find_offset(const std::vector<RotationInterval>& intervals, const GyroRotation& gyro,
+                        const ExtrinsicCheckConfig& config) {
+  OffsetFound out;
+  const size_t parts = static_cast<size_t>(config.offset_parts);
+  if (intervals.size() < 5 * parts) {
+    return out;
+  }
+  std::vector<size_t> part_of(intervals.size());
+  double total_share = 0.0;
+  for (const RotationInterval& r : intervals) {
+    total_share += r.share;
+  }
+  double share_before = 0.0;
+  for (size_t k = 0; k < intervals.size(); ++k) {
+    part_of[k] = total_share > 0.0
+                     ? std::min(parts - 1, static_cast<size_t>(parts * share_before / total_share))
+                     : k * parts / intervals.size();
+    share_before += intervals[k].share;
+  }
+  const double step_us = config.offset_step_s * 1e6;
+  const int steps = static_cast<int>(std::round(config.max_offset_s / config.offset_step_s));
+  // Costs at offsets (i - steps) * step_us: the whole window's, then each part's.
+  std::vector<std::vector<double>> costs(parts + 1,
+                                         std::vector<double>(static_cast<size_t>(2 * steps + 1)));
+  for (int i = -steps; i <= steps; ++i) {
+    const double offset_us = i * step_us;
+    for (size_t k = 0; k < intervals.size(); ++k) {
+      const RotationInterval& r = intervals[k];
+      const Eigen::Matrix3d dR_I = gyro.between(r.t0_us - offset_us, r.t1_us - offset_us);
+      const double cost = so3::log(r.dR_B.transpose() * dR_I).squaredNorm();
+      costs[0][static_cast<size_t>(i + steps)] += cost;
+      costs[1 + part_of[k]][static_cast<size_t>(i + steps)] += cost;
+    }
+  }
+  const double first_us = static_cast<double>(-steps) * step_us;
+  out.offset_us = grid_minimum(costs[0], first_us, step_us);
+  double spread_sq = 0.0;
+  for (size_t p = 1; p <= parts; ++p) {
+    out.parts_us.push_back(grid_minimum(costs[p], first_us, step_us));
+    spread_sq += std::pow(out.parts_us.back() - out.offset_us, 2);
+  }
+  out.spread_us = std::sqrt(spread_sq / static_cast<double>(parts - 1));
+  return out;
 }
 
 class Problem {
@@ -338,8 +411,7 @@ ExtrinsicEstimate ExtrinsicCheck::estimate() const {
     std::vector<Eigen::Vector3d> w;
     w.reserve(rates.size());
     for (const RatePair& r : rates) {
-      w.push_back((gyro.at(r.t1_us - offset_us) - gyro.at(r.t0_us - offset_us)) /
-                  ((r.t1_us - r.t0_us) * 1e-6));
+      w.push_back(gyro.mean(r.t0_us - offset_us, r.t1_us - offset_us));
     }
     return w;
   };
@@ -419,28 +491,10 @@ ExtrinsicEstimate ExtrinsicCheck::estimate() const {
     return best;
   };
 
-  // The rotation first (a clock offset of tens of ms hardly moves it), then the offset,
-  // then the rotation again at the offset. The offset from the LiDAR's rotation over
-  // interval_s against the gyro's over the same interval shifted by the offset: an offset
-  // dt moves the gyro's by dt times the change of the rate across the interval, which over
-  // a second of a turn's entry is ten times what it is across one pair of sweeps, while
-  // the registered rotation's error hardly grows (per pair of sweeps, the offset strayed up
-  // to 21 ms on correct rigs). The residual is also summed over offset_parts consecutive
-  // parts of the motion, each with an equal share of the rate changes: a clock offset shows
-  // in every part, a lag that follows where the sweeps saw structure (no residual-based
-  // sigma knows it) does not.
+  // The rotation first (a clock offset of tens of ms hardly moves it), then the offset
+  // (find_offset), then the rotation again at the offset.
   Fit fit = best_fit(0.0, axis_rotations());
-  const GyroRotation gyro_rotation(imu_, fit.bg);
-  struct RotationInterval {
-    double t0_us, t1_us;
-    Eigen::Matrix3d dR_B;  // the LiDAR's, in the IMU's frame through the fitted rotation
-    double share;          // the squared change of the rate across it
-  };
-  const auto rate_near = [&](double t_us) {
-    const double half_us = 10000.0;
-    return Eigen::Vector3d((gyro.at(t_us + half_us) - gyro.at(t_us - half_us)) /
-                           (2.0 * half_us * 1e-6));
-  };
+  const auto rate_near = [&](double t_us) { return gyro.mean(t_us - 10000.0, t_us + 10000.0); };
   std::vector<RotationInterval> intervals;
   for (size_t k = 0, j = 0; k < poses_.size(); ++k) {
     const double t0 = static_cast<double>(poses_[k].utime_us);
@@ -460,54 +514,12 @@ ExtrinsicEstimate ExtrinsicCheck::estimate() const {
          fit.R * poses_[k].T.linear().transpose() * poses_[j].T.linear() * fit.R.transpose(),
          (rate_near(t1) - rate_near(t0)).squaredNorm()});
   }
-  const size_t parts = static_cast<size_t>(config_.offset_parts);
-  if (intervals.size() < 5 * parts) {
-    // Too little contiguous motion to tell an offset (sweeps dropped): none is named.
-    out.time_offset_spread_s = std::numeric_limits<double>::infinity();
-    intervals.clear();
+  const OffsetFound offset = find_offset(intervals, GyroRotation(imu_, fit.bg), config_);
+  for (const double part_us : offset.parts_us) {
+    out.time_offset_parts_s.push_back(part_us * 1e-6);
   }
-  std::vector<size_t> part_of(intervals.size());
-  double total_share = 0.0;
-  for (const RotationInterval& r : intervals) {
-    total_share += r.share;
-  }
-  double share_before = 0.0;
-  for (size_t k = 0; k < intervals.size(); ++k) {
-    part_of[k] = total_share > 0.0
-                     ? std::min(parts - 1, static_cast<size_t>(parts * share_before / total_share))
-                     : k * parts / intervals.size();
-    share_before += intervals[k].share;
-  }
-  const double step_us = config_.offset_step_s * 1e6;
-  const int steps = static_cast<int>(std::round(config_.max_offset_s / config_.offset_step_s));
-  // Costs at offsets (i - steps) * step_us: the whole window's, then each part's.
-  std::vector<std::vector<double>> costs(parts + 1,
-                                         std::vector<double>(static_cast<size_t>(2 * steps + 1)));
-  for (int i = -steps; i <= steps; ++i) {
-    const double offset_us = i * step_us;
-    for (size_t k = 0; k < intervals.size(); ++k) {
-      const RotationInterval& r = intervals[k];
-      const Eigen::Matrix3d dR_I = gyro_rotation.between(r.t0_us - offset_us, r.t1_us - offset_us);
-      const double cost = so3::log(r.dR_B.transpose() * dR_I).squaredNorm();
-      costs[0][static_cast<size_t>(i + steps)] += cost;
-      costs[1 + part_of[k]][static_cast<size_t>(i + steps)] += cost;
-    }
-  }
-  const auto minimum_us = [&](const std::vector<double>& c) {
-    return grid_minimum(c, static_cast<double>(-steps) * step_us, step_us);
-  };
-  double best_offset_us = 0.0;
-  if (!intervals.empty()) {
-    best_offset_us = minimum_us(costs[0]);
-    double spread_sq = 0.0;
-    for (size_t p = 1; p <= parts; ++p) {
-      const double part_offset_us = minimum_us(costs[p]);
-      out.time_offset_parts_s.push_back(part_offset_us * 1e-6);
-      spread_sq += std::pow(part_offset_us - best_offset_us, 2);
-    }
-    out.time_offset_spread_s = std::sqrt(spread_sq / static_cast<double>(parts - 1)) * 1e-6;
-  }
-  fit = best_fit(best_offset_us, {fit.R});
+  out.time_offset_spread_s = offset.spread_us * 1e-6;
+  fit = best_fit(offset.offset_us, {fit.R});
 
   out.R_BF = fit.R;
   out.rotation_error_deg = so3::log(fit.R).norm() * so3::kRadToDeg;
@@ -517,7 +529,7 @@ ExtrinsicEstimate ExtrinsicCheck::estimate() const {
                                   .eigenvalues()
                                   .maxCoeff())) *
       so3::kRadToDeg;
-  out.time_offset_error_s = best_offset_us * 1e-6;
+  out.time_offset_error_s = offset.offset_us * 1e-6;
   out.gyro_bias_rps = fit.bg;
   out.gravity_mps2 = fit.g.norm();
   out.gyro_rms_rps = fit.gyro_rms;
