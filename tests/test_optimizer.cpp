@@ -292,10 +292,11 @@ TEST(Localizer, ModeFollowsTheOverlapOfEq11) {
   EXPECT_NEAR(outside.T_map_body.translation().x(), 105.0, 1e-6);  // the odometry carries it
 }
 
-// Submaps within reach are inserted whole at once; one just beyond is inserted ahead, a
-// bounded part per update, so that no keyframe pays for whole submaps coming into reach.
-// Submap 0 at the robot, 1 at 50 m (ahead), 2 at 55 m (ahead, not fetched yet).
-TEST(SlidingTarget, InsertsWhatIsInReachAndPrefetchesTheNextInParts) {
+// Submaps within reach are inserted when the registration needs them; the nearest one just
+// beyond goes in after the pose is out (prefetch), so that no keyframe pays for it; what
+// falls far behind leaves. Submap 0 at the robot, 1 at 50 m (ahead), 2 at 55 m (ahead,
+// not fetched yet).
+TEST(SlidingTarget, InsertsWhatIsInReachPrefetchesTheNextAndForgetsTheFar) {
   MapData map;
   for (int k = 0; k < 3; ++k) {
     MapKeyframe kf;
@@ -323,21 +324,25 @@ TEST(SlidingTarget, InsertsWhatIsInReachAndPrefetchesTheNextInParts) {
     return std::shared_ptr<const std::vector<Eigen::Vector3f>>(points);
   };
   const SubmapTargets targets([&](int64_t id) { return id == 2 ? nullptr : cloud(id); });
-  SlidingTarget target({0.5}, 35.0, 30.0, 15000, 200.0);
+  SlidingTarget target({0.5}, 35.0, 30.0, 200.0);
   const Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   const SlidingTarget::Update first = target.update(index, targets, origin);
   EXPECT_TRUE(first.missing.empty());
   EXPECT_EQ(first.upcoming, std::vector<int64_t>{2});
-  EXPECT_EQ(target.submaps(), 1u);  // submap 0 whole, 15 000 points of submap 1
-  const size_t after_first = target.stage(0).num_points();
-  target.update(index, targets, origin);
-  EXPECT_EQ(target.submaps(), 1u);
-  EXPECT_GT(target.stage(0).num_points(), after_first);
-  target.update(index, targets, origin);  // 45 000 >= 40 000: submap 1 is in
+  EXPECT_EQ(target.submaps(), 1u);  // submap 0 only: 1 is beyond reach
+  EXPECT_EQ(target.stage(0).num_points(), 40000u);
+  target.prefetch(index, targets, origin);
+  EXPECT_EQ(target.submaps(), 2u);  // submap 1 whole
+  EXPECT_EQ(target.stage(0).num_points(), 80000u);
+  target.prefetch(index, targets, origin);  // submap 2 is not there to insert
   EXPECT_EQ(target.submaps(), 2u);
   // At 50 m submap 2 is within reach and still not there: the scan match must wait.
   EXPECT_EQ(target.update(index, targets, Eigen::Vector3d(50.0, 0.0, 0.0)).missing,
             std::vector<int64_t>{2});
+  // 300 m on, both submaps are forgotten and their voxels gone (beyond keep_m, 200 m).
+  target.prefetch(index, targets, Eigen::Vector3d(300.0, 0.0, 0.0));
+  EXPECT_EQ(target.submaps(), 0u);
+  EXPECT_EQ(target.stage(0).num_points(), 0u);
 }
 
 }  // namespace

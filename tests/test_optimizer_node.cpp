@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include "bridge/init_conversions.hpp"
 #include "bridge/lcm_conversions.hpp"
 #include "bridge/odometry_conversions.hpp"
 #include "initializer_node/initializer_node.hpp"
@@ -28,12 +29,16 @@ struct Rig : test::StreetRig {
   std::map<int64_t, Eigen::Isometry3d> poses;  // POSE by time
   std::vector<liloc::status_t> status;
   int coarse_poses = 0;
+  std::vector<double> coarse_sigmas_xy_m;
   const Eigen::Isometry3d T_odom_map =
       se3::make(so3::exp(Eigen::Vector3d(0, 0, 0.9)), Eigen::Vector3d(3, 4, 0)).inverse();
 
-  explicit Rig(const std::string& name) : StreetRig("liloc_optimizer_node_" + name) {
+  // global_without_coarse false: the initializer searches only when asked (COARSE_POSE).
+  explicit Rig(const std::string& name, bool global_without_coarse = true)
+      : StreetRig("liloc_optimizer_node_" + name) {
     InitializerNodeConfig init_config;
     init_config.initializer.request_period_s = 0.2;
+    init_config.initializer.global_without_coarse = global_without_coarse;
     initializer = std::make_unique<InitializerNode>(*bus, "robot0", init_config);
     OptimizerNodeConfig config;
     config.optimizer.request_period_s = 0.2;
@@ -49,8 +54,10 @@ struct Rig : test::StreetRig {
         "robot0.STATUS.optimizer",
         [this](const liloc::status_t& m, const transport::ReceiveInfo&) { status.push_back(m); });
     bus->subscribe<liloc::pose_t>(
-        "robot0.COARSE_POSE",
-        [this](const liloc::pose_t&, const transport::ReceiveInfo&) { ++coarse_poses; });
+        "robot0.COARSE_POSE", [this](const liloc::pose_t& m, const transport::ReceiveInfo&) {
+          ++coarse_poses;
+          coarse_sigmas_xy_m.push_back(bridge::coarse_pose_from_msg(m).sigma_xy_m);
+        });
     start_server({"robot0"});
   }
   static int64_t utime_of(int64_t id) { return 1'700'000'100'000'000 + id * 100'000; }
@@ -134,6 +141,8 @@ TEST(OptimizerNode, LostTrackingAsksForAReinitializationAndRecovers) {
   EXPECT_EQ(rig.optimizer->counters().lost, 1);
   EXPECT_TRUE(said_lost);
   EXPECT_GE(rig.coarse_poses, 1);
+  ASSERT_FALSE(rig.coarse_sigmas_xy_m.empty());
+  EXPECT_EQ(rig.coarse_sigmas_xy_m.front(), 5.0);  // it had tracked: around its estimate
   ASSERT_EQ(rig.optimizer->counters().starts, 2);
   for (const int64_t end = id + 5; id < end; ++id) {
     rig.keyframe(id, 40.0 + id, 20.0 + id);
@@ -141,6 +150,42 @@ TEST(OptimizerNode, LostTrackingAsksForAReinitializationAndRecovers) {
     EXPECT_LT(rig.error_m(id, 40.0 + id), 0.05) << "keyframe " << id;
   }
   EXPECT_FALSE(rig.optimizer->lost());
+}
+
+// The initializer's answer for the first keyframe was wrong, 15 m along the street (as
+// Mid-360 campus C's was before max_alternative_ratio 0.85): every scan match is refused,
+// and as none passed since the start, the optimizer asks for a global search, not one
+// around its estimate (a wrong start says nothing about where to search); the
+// initializer's global answer starts it again at the true place.
+TEST(OptimizerNode, LostBeforeAnyScanMatchAsksForAGlobalReinitialization) {
+  Rig rig("wrong_start", false);
+  rig.keyframe(0, 20.0, 20.0);
+  InitAnswer wrong;
+  wrong.localized = true;
+  wrong.method = "coarse_to_fine";
+  wrong.keyframe_id = 0;
+  wrong.utime_us = Rig::utime_of(0);
+  wrong.T_map_body = truth_at(35.0);
+  wrong.covariance = Matrix6d::Identity() * 1e-4;
+  liloc::init_result_t msg = bridge::to_msg(wrong, "robot0");
+  rig.bus->publish("robot0.INIT", msg);
+  ASSERT_TRUE(rig.run_until([&] { return rig.optimizer->counters().starts == 1; }));
+  int64_t id = 1;
+  for (; id <= 40 && rig.optimizer->counters().starts < 2; ++id) {
+    rig.keyframe(id, 20.0 + id, 20.0 + id);
+    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); }));
+    rig.run_until([] { return false; }, 0.2);  // the initializer's turn
+  }
+  EXPECT_EQ(rig.optimizer->counters().scan_matched, 0);
+  EXPECT_EQ(rig.optimizer->counters().lost, 1);
+  ASSERT_EQ(rig.coarse_sigmas_xy_m.size(), 1u);
+  EXPECT_GT(rig.coarse_sigmas_xy_m[0], 500.0);  // the initializer's global_sigma_xy_m
+  ASSERT_EQ(rig.optimizer->counters().starts, 2);
+  for (const int64_t end = id + 5; id < end; ++id) {
+    rig.keyframe(id, 20.0 + id, 20.0 + id);
+    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); }));
+    EXPECT_LT(rig.error_m(id, 20.0 + id), 0.05) << "keyframe " << id;
+  }
 }
 
 // Map growth end to end: robot0 drives off the end of the mapped street (the map ends at

@@ -141,6 +141,10 @@ TEST(VoxelGrid, SparsePointsAreCappedAndSpread) {
   EXPECT_LT(few.front().x(), 0.5f);
   EXPECT_GT(few.back().x(), 98.0f);
   EXPECT_EQ(sparse_points(line, 0.5f, 1000).size(), 200u);
+  // Not a whole divisor of the voxels: still at most max_points, still end to end.
+  const std::vector<Eigen::Vector3f> capped = sparse_points(line, 0.5f, 150);
+  EXPECT_EQ(capped.size(), 150u);
+  EXPECT_GT(capped.back().x(), 98.0f);
 }
 
 }  // namespace

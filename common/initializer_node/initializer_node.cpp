@@ -75,7 +75,8 @@ void InitializerNode::on_keyframe(InitQuery query) {
 
 void InitializerNode::on_coarse_pose(const CoarsePose& coarse) {
   // A request to (re-)initialize; a pose this uncertain asks for a global search.
-  if (coarse.sigma_xy_m > config_.initializer.global_sigma_xy_m) {
+  global_asked_ = coarse.sigma_xy_m > config_.initializer.global_sigma_xy_m;
+  if (global_asked_) {
     coarse_.reset();
   } else {
     coarse_ = coarse;
@@ -96,7 +97,7 @@ void InitializerNode::try_initialize() {
     state_ = map_.error().empty() ? map_.waiting_for_index() : map_.error();
     return;
   }
-  if (!coarse_ && !config_.initializer.global_without_coarse) {
+  if (!coarse_ && !global_asked_ && !config_.initializer.global_without_coarse) {
     state_ = "waiting for a coarse pose on " +
              transport::robot_channel(robot_id_, config_.channels.coarse_pose);
     return;
@@ -131,6 +132,7 @@ void InitializerNode::try_initialize() {
         "localized keyframe " + std::to_string(answer.keyframe_id) + " (" + answer.method + ")";
     wanted_ = false;
     coarse_.reset();
+    global_asked_ = false;
     voter_.clear();
     keyframes_.clear();
   } else {

@@ -102,6 +102,7 @@ class InitializerNode final : public node::Node {
 
   bool wanted_ = true;  // an initialization is asked for
   std::optional<CoarsePose> coarse_;
+  bool global_asked_ = false;        // a COARSE_POSE asked for a global search
   std::deque<InitQuery> keyframes_;  // the newest last
 
   Counters counters_;

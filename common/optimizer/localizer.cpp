@@ -14,12 +14,12 @@ void LocalizerConfig::validate() const {
       overlap_submaps < 1 || !(target_radius_m > 0) || max_query_points < 100 ||
       !(max_fitness_m > 0) || !(min_matched_ratio >= 0 && min_matched_ratio <= 1) ||
       !(max_correction_m > 0) || !(max_correction_rad > 0) || !(prior_fitness_radius_m > 0) ||
-      !(fitness_cap_m > 0) || !(target_prefetch_m >= 0) || target_prefetch_points < 1 ||
+      !(fitness_cap_m > 0) || !(target_prefetch_m >= 0) ||
       !(target_keep_m > target_radius_m + target_prefetch_m) || independent_correspondences < 1) {
     throw std::invalid_argument(
         "the localizer's distances and bounds must be positive, overlap_threshold and "
         "min_matched_ratio in [0, 1], max_query_points at least 100, "
-        "independent_correspondences and target_prefetch_points at least 1, target_keep_m "
+        "independent_correspondences at least 1, target_keep_m "
         "beyond target_radius_m + target_prefetch_m");
   }
   stages.validate();
@@ -40,7 +40,7 @@ Localizer::Localizer(const LocalizerConfig& config, const MapIndex& index,
       targets_(targets),
       graph_(config.graph),
       target_(config.stages.voxel_m, config.target_radius_m, config.target_prefetch_m,
-              static_cast<size_t>(config.target_prefetch_points), config.target_keep_m) {}
+              config.target_keep_m) {}
 
 void Localizer::start(const LocalizerKeyframe& keyframe, const Eigen::Isometry3d& T_map_body,
                       const Matrix6d& covariance) {
@@ -50,7 +50,16 @@ void Localizer::start(const LocalizerKeyframe& keyframe, const Eigen::Isometry3d
   first.T_odom_body = keyframe.T_odom_body;
   graph_.start(first, T_map_body, covariance);
   T_map_odom_ = T_map_body * keyframe.T_odom_body.inverse();
+  position_map_ = T_map_body.translation();
   started_ = true;
+}
+
+double Localizer::upkeep() {
+  const Stopwatch watch;
+  if (started_) {
+    target_.prefetch(*index_, targets_, position_map_);
+  }
+  return watch.ms();
 }
 
 Eigen::Isometry3d Localizer::T_map_odom() const {
@@ -183,6 +192,7 @@ LocalizerOutput Localizer::add(const LocalizerKeyframe& keyframe) {
     out.graph = graph_.add(kf);
     out.T_map_body = out.graph.T_map_body;
   }
+  position_map_ = out.T_map_body.translation();
   out.total_ms = watch.ms();
   return out;
 }

@@ -30,27 +30,30 @@ struct LocalizerConfig {
   double overlap_half_side_m = 10.0;
   double overlap_threshold = 0.7;
   int overlap_submaps = 3;
-  // Scan match: the submaps within target_radius_m, registered coarse to fine; those within
-  // target_prefetch_m beyond are inserted ahead, target_prefetch_points a keyframe
-  // (SlidingTarget). bench_efg, keyframe-to-POSE median / p99: HDL-32E campus C 21.2 / 44.6
-  // ms at 15 m and 5000 points (19.2 / 56.0 without prefetching, 28.6 / 53.6 at 30 m and
-  // 15 000 points); OS1-64 campus B 10.1 / 46.9 ms, C 17.8 / 48.6 ms (p99 77-92 ms
-  // without). Their
-  // voxels are kept within target_keep_m of the robot: beyond both by a submap's reach (20 m
-  // of keyframes, 100 m of LiDAR range, SlidingTarget's hysteresis), so that memory stays
-  // bounded and no submap still in use loses points.
+  // Scan match: the submaps within target_radius_m, registered coarse to fine; the nearest
+  // one within target_prefetch_m beyond is inserted ahead after each keyframe's pose is out
+  // (upkeep(), SlidingTarget). Their voxels are kept within target_keep_m of the robot:
+  // beyond both by a submap's reach (20 m of keyframes, 100 m of LiDAR range,
+  // SlidingTarget's hysteresis), so that memory stays bounded and no submap still in use
+  // loses points.
   double target_radius_m = 35.0;
   double target_prefetch_m = 15.0;
-  int target_prefetch_points = 5000;
   double target_keep_m = 185.0;
   RegistrationStages stages{{1.0, 0.5}, {1.5, 0.6}, {0.15, 0.06}};
   // Per stage. 2000 against 3000: the same ATE on campus C (0.044 m), keyframe-to-POSE
-  // latency 19.9 / 51.5 ms instead of 25.0 / 61.6 ms (median / p99, bench_efg).
+  // latency 19.9 / 51.5 ms instead of 25.0 / 61.6 ms (median / p99, bench_efg; measured
+  // when sparse_points still kept up to twice as many: 3200 and 2300 in the median).
   int max_query_points = 2000;
   RegistrationConfig registration = [] {
     RegistrationConfig c;
     c.max_iterations = 15;
-    c.max_associations = 15;
+    // Two searches a stage, then iterations on those planes: a keyframe's prediction is
+    // centimetres off while tracking, and the fine stage searches again. HDL-32E campus C:
+    // the same ATE (0.044 m) as with 15, keyframe-to-POSE 21.2 / 26.8 ms median / p99
+    // against 28.6 / 49.4 (bench_efg). One thread: two were faster alone (16.6 / 28.3 ms)
+    // but 36.8 / 186 ms with the other core busy (their barriers wait for a thread the
+    // scheduler gave away).
+    c.max_associations = 2;
     c.min_planarity = 0.25;
     return c;
   }();
@@ -80,7 +83,6 @@ struct LocalizerConfig {
     v("overlap_submaps", overlap_submaps);
     v("target_radius_m", target_radius_m);
     v("target_prefetch_m", target_prefetch_m);
-    v("target_prefetch_points", target_prefetch_points);
     v("target_keep_m", target_keep_m);
     v("stages", stages);
     v("max_query_points", max_query_points);
@@ -121,7 +123,7 @@ struct LocalizerOutput {
   std::vector<int64_t> upcoming_submaps;  // just beyond reach and not there: fetch them
   GraphEstimate graph;
   double scan_match_ms = 0.0;
-  double target_ms = 0.0;  // of scan_match_ms: the sliding target's upkeep
+  double target_ms = 0.0;  // of scan_match_ms: the submaps the target needed now
   double total_ms = 0.0;
 };
 
@@ -137,6 +139,9 @@ class Localizer {
              const Matrix6d& covariance);
   bool started() const { return started_; }
   LocalizerOutput add(const LocalizerKeyframe& keyframe);
+  // What can wait until add()'s pose is out (its time in ms): the map ahead goes into the
+  // registration targets, the map far behind leaves them. Call it between keyframes.
+  double upkeep();
   // The pose of an odometry estimate between keyframes.
   Eigen::Isometry3d T_map_odom() const;
 
@@ -152,6 +157,7 @@ class Localizer {
   SlidingTarget target_;
   bool started_ = false;
   Eigen::Isometry3d T_map_odom_ = Eigen::Isometry3d::Identity();  // scan_to_map_only
+  Eigen::Vector3d position_map_ = Eigen::Vector3d::Zero();        // the latest estimate's
 };
 
 }  // namespace liloc

@@ -6,8 +6,8 @@
 namespace liloc {
 
 SlidingTarget::SlidingTarget(std::vector<double> voxel_m, double radius_m, double prefetch_m,
-                             size_t prefetch_points, double keep_m)
-    : radius_m_(radius_m), prefetch_m_(prefetch_m), prefetch_points_(prefetch_points) {
+                             double keep_m)
+    : radius_m_(radius_m), prefetch_m_(prefetch_m) {
   for (const double v : voxel_m) {
     VoxelMapConfig config;
     config.voxel_m = v;
@@ -17,14 +17,37 @@ SlidingTarget::SlidingTarget(std::vector<double> voxel_m, double radius_m, doubl
   }
 }
 
-void SlidingTarget::insert(const std::vector<Eigen::Vector3f>& points, size_t from, size_t to) {
+void SlidingTarget::insert(const std::vector<Eigen::Vector3f>& points) {
   for (const std::unique_ptr<VoxelHashMap>& stage : stages_) {
-    stage->insert(points.data() + from, to - from);
+    stage->insert(points);
   }
 }
 
 SlidingTarget::Update SlidingTarget::update(const MapIndex& index, const SubmapTargets& targets,
                                             const Eigen::Vector3d& position) {
+  Update out;
+  for (const int64_t id : SubmapTargets::submaps_around(index, position, radius_m_)) {
+    if (inserted_.count(id) != 0) {
+      continue;
+    }
+    if (const auto points = targets.points(id)) {
+      insert(*points);
+      inserted_.insert(id);
+    } else {
+      out.missing.push_back(id);
+    }
+  }
+  for (const KdTree::Hit& hit : index.submaps().submaps_within(position, radius_m_ + prefetch_m_)) {
+    if (inserted_.count(hit.id) == 0 && !targets.points(hit.id) &&
+        std::find(out.missing.begin(), out.missing.end(), hit.id) == out.missing.end()) {
+      out.upcoming.push_back(hit.id);
+    }
+  }
+  return out;
+}
+
+void SlidingTarget::prefetch(const MapIndex& index, const SubmapTargets& targets,
+                             const Eigen::Vector3d& position) {
   const auto distance_m = [&](int64_t id) {
     const Submap* submap = index.submaps().submap(id);
     return submap == nullptr ? std::numeric_limits<double>::infinity()
@@ -36,9 +59,6 @@ SlidingTarget::Update SlidingTarget::update(const MapIndex& index, const SubmapT
   for (auto it = inserted_.begin(); it != inserted_.end();) {
     it = distance_m(*it) > forget_m ? inserted_.erase(it) : std::next(it);
   }
-  if (pending_ && distance_m(pending_->id) > forget_m) {
-    pending_.reset();
-  }
   // Dropping far voxels visits them all: only every kHysteresisM of travel.
   if (!trimmed_at_ || (*trimmed_at_ - position).norm() > kHysteresisM) {
     for (const std::unique_ptr<VoxelHashMap>& stage : stages_) {
@@ -46,50 +66,21 @@ SlidingTarget::Update SlidingTarget::update(const MapIndex& index, const SubmapT
     }
     trimmed_at_ = position;
   }
-  Update out;
-  // Within reach: all of it now (the rest of one being inserted ahead).
-  for (const int64_t id : SubmapTargets::submaps_around(index, position, radius_m_)) {
-    if (inserted_.count(id) != 0) {
-      continue;
-    }
-    if (pending_ && pending_->id == id) {
-      insert(*pending_->points, pending_->inserted, pending_->points->size());
-      pending_.reset();
-    } else if (const auto points = targets.points(id)) {
-      insert(*points, 0, points->size());
-    } else {
-      out.missing.push_back(id);
-      continue;
-    }
-    inserted_.insert(id);
-  }
-  // Ahead: the nearest submap beyond reach, prefetch_points_ of it per update.
-  std::vector<KdTree::Hit> ahead =
-      index.submaps().submaps_within(position, radius_m_ + prefetch_m_);
-  std::sort(ahead.begin(), ahead.end(),
-            [](const KdTree::Hit& a, const KdTree::Hit& b) { return a.distance < b.distance; });
-  for (const KdTree::Hit& hit : ahead) {
-    if (inserted_.count(hit.id) != 0 || (pending_ && pending_->id == hit.id)) {
+  // Nearest first (KdTree::within's order): those within reach (a start: the next keyframe needs
+  // them all), then the nearest one beyond: keyframes come far oftener than submaps come within
+  // reach.
+  for (const KdTree::Hit& hit : index.submaps().submaps_within(position, radius_m_ + prefetch_m_)) {
+    if (inserted_.count(hit.id) != 0) {
       continue;
     }
     if (const auto points = targets.points(hit.id)) {
-      if (!pending_) {
-        pending_ = Pending{hit.id, points, 0};
+      insert(*points);
+      inserted_.insert(hit.id);
+      if (hit.distance > radius_m_) {
+        return;
       }
-    } else {
-      out.upcoming.push_back(hit.id);
     }
   }
-  if (pending_) {
-    const size_t to = std::min(pending_->points->size(), pending_->inserted + prefetch_points_);
-    insert(*pending_->points, pending_->inserted, to);
-    pending_->inserted = to;
-    if (to == pending_->points->size()) {
-      inserted_.insert(pending_->id);
-      pending_.reset();
-    }
-  }
-  return out;
 }
 
 }  // namespace liloc

@@ -3,7 +3,7 @@
 // stage: submaps are inserted as they come within reach and voxels dropped as they fall
 // behind, so that moving on costs one submap's insertion, not a new target of every submap
 // around (a new target per change of the submap set cost up to 170 ms a keyframe). Submaps
-// a little beyond reach are inserted ahead, a bounded part of one per update, so that a
+// a little beyond reach are inserted ahead, after a keyframe's pose is out, so that a
 // keyframe does not pay for whole submaps as they come within reach (an OS1-64 submap of
 // ~100 000 points took 15-40 ms: the keyframe-to-POSE p99 was 77-85 ms).
 
@@ -25,17 +25,20 @@ class SlidingTarget {
   // and forgotten beyond radius_m + prefetch_m + kHysteresisM; voxels are dropped beyond
   // keep_m, which must exceed that by a submap's reach (its keyframes' extent and the
   // LiDAR's range), so that a submap still inserted never loses points.
-  // Submaps within radius_m + prefetch_m are inserted ahead, prefetch_points per update.
-  SlidingTarget(std::vector<double> voxel_m, double radius_m, double prefetch_m,
-                size_t prefetch_points, double keep_m);
+  SlidingTarget(std::vector<double> voxel_m, double radius_m, double prefetch_m, double keep_m);
 
   struct Update {
     std::vector<int64_t> missing;   // within reach, not in `targets`: registration must wait
     std::vector<int64_t> upcoming;  // within the prefetch ring, not in `targets`: fetch them
   };
-  // Brings the targets to `position`: inserts the submaps within reach that `targets` has,
-  // and the nearest one of those just beyond; names the ones it does not have (yet).
+  // What a registration at `position` needs now: inserts the submaps within reach that
+  // `targets` has; names the ones it does not have (yet) and those just beyond reach.
   Update update(const MapIndex& index, const SubmapTargets& targets,
+                const Eigen::Vector3d& position);
+  // What can wait until the registration's result is out: the submaps within reach and the
+  // nearest one up to prefetch_m beyond that `targets` has go in, so that update() rarely
+  // pays for one; submaps and voxels far behind are dropped.
+  void prefetch(const MapIndex& index, const SubmapTargets& targets,
                 const Eigen::Vector3d& position);
   const VoxelHashMap& stage(size_t s) const { return *stages_[s]; }
   size_t submaps() const { return inserted_.size(); }
@@ -43,18 +46,10 @@ class SlidingTarget {
   static constexpr double kHysteresisM = 10.0;
 
  private:
-  // A submap being inserted ahead: its points up to `inserted` are in.
-  struct Pending {
-    int64_t id;
-    std::shared_ptr<const std::vector<Eigen::Vector3f>> points;
-    size_t inserted;
-  };
-  void insert(const std::vector<Eigen::Vector3f>& points, size_t from, size_t to);
+  void insert(const std::vector<Eigen::Vector3f>& points);
 
   double radius_m_;
   double prefetch_m_;
-  size_t prefetch_points_;
-  std::optional<Pending> pending_;
   std::optional<Eigen::Vector3d> trimmed_at_;  // where far voxels were last dropped
   std::vector<std::unique_ptr<VoxelHashMap>> stages_;
   std::set<int64_t> inserted_;

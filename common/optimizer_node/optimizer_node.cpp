@@ -18,10 +18,12 @@ namespace liloc {
 
 void OptimizerProcessConfig::validate() const {
   if (!(status_period_s > 0 && status_period_s <= 600) || keep_keyframes < 1 ||
-      lost_after_keyframes < 1 || !(reinit_sigma_xy_m > 0) || !(reinit_sigma_yaw_rad > 0)) {
+      lost_after_keyframes < 1 || !(reinit_sigma_xy_m > 0) || !(reinit_sigma_yaw_rad > 0) ||
+      !(reinit_global_sigma_xy_m >= reinit_sigma_xy_m)) {
     throw std::invalid_argument(
         "status_period_s must be in (0, 600], keep_keyframes and lost_after_keyframes at least 1, "
-        "the re-initialization sigmas positive");
+        "the re-initialization sigmas positive, reinit_global_sigma_xy_m at least "
+        "reinit_sigma_xy_m");
   }
   MapClientConfig{request_period_s, max_cached_submaps}.validate();
   localizer.validate();
@@ -166,11 +168,13 @@ void OptimizerNode::try_start() {
   ++counters_.starts;
   lost_ = false;
   unmatched_in_a_row_ = 0;
+  scan_matched_since_start_ = 0;
   covariance_ = init_->covariance;
   state_ = "started at keyframe " + std::to_string(id) + " (" + init_->method + ")";
   spdlog::info("{}: {}", robot_id_, state_);
   init_.reset();
   publish_pose(it->utime_us, localizer_->T_map_odom() * it->T_odom_body, Eigen::Vector3d::Zero());
+  upkeep_ms_ = localizer_->upkeep();
   // The keyframes that came while the initializer searched.
   for (auto next = std::next(it); next != keyframes_.end(); ++next) {
     optimize(*next, std::next(next) == keyframes_.end());
@@ -191,6 +195,7 @@ void OptimizerNode::optimize(const LocalizerKeyframe& keyframe, bool publish) {
   }
   if (out.scan_matched) {
     ++counters_.scan_matched;
+    ++scan_matched_since_start_;
     unmatched_in_a_row_ = 0;
   } else if (out.mode == LocalizationMode::kRelocalization && out.missing_submaps.empty()) {
     ++counters_.gated;
@@ -224,18 +229,23 @@ void OptimizerNode::optimize(const LocalizerKeyframe& keyframe, bool publish) {
   if (publish) {
     publish_pose(keyframe.utime_us, out.T_map_body, out.graph.velocity_map);
   }
+  upkeep_ms_ = localizer_->upkeep();
 }
 
 void OptimizerNode::declare_lost(const std::string& reason, const Eigen::Isometry3d& T_map_body) {
   lost_ = true;
   ++counters_.lost;
-  state_ = "LOST: " + reason + "; re-initialization asked";
+  const bool global = scan_matched_since_start_ == 0;
+  state_ = "LOST: " + reason +
+           (global ? "; no scan match since the start: a global re-initialization asked"
+                   : "; re-initialization asked around the estimate");
   spdlog::warn("{}: {}", robot_id_, state_);
   CoarsePose coarse;
   coarse.x_m = T_map_body.translation().x();
   coarse.y_m = T_map_body.translation().y();
   coarse.yaw_rad = so3::yaw(T_map_body.linear());
-  coarse.sigma_xy_m = config_.optimizer.reinit_sigma_xy_m;
+  coarse.sigma_xy_m =
+      global ? config_.optimizer.reinit_global_sigma_xy_m : config_.optimizer.reinit_sigma_xy_m;
   coarse.sigma_yaw_rad = config_.optimizer.reinit_sigma_yaw_rad;
   liloc::pose_t msg = bridge::to_msg(coarse, node::wall_clock_us(), robot_id_);
   bus_.publish(coarse_pose_channel_, msg);
@@ -316,7 +326,8 @@ void OptimizerNode::publish_status(int64_t now_us) {
                          {"jfgo", static_cast<float>(last_->graph.solve_ms)},
                          {"covariance", static_cast<float>(last_->graph.covariance_ms)},
                          {"marginalization", static_cast<float>(last_->graph.marginalization_ms)},
-                         {"total", static_cast<float>(last_->total_ms)}};
+                         {"total", static_cast<float>(last_->total_ms)},
+                         {"upkeep", static_cast<float>(upkeep_ms_)}};
   }
   report.message = state_;
   report.counters = {

@@ -47,6 +47,11 @@ struct OptimizerProcessConfig {
   // The coarse pose of a re-initialization: the current estimate with these sigmas.
   double reinit_sigma_xy_m = 5.0;
   double reinit_sigma_yaw_rad = 0.5;
+  // Lost before any scan match since the start: the start itself was wrong (an initializer
+  // answer metres along a street), and the estimate is no place to search around. The
+  // coarse pose then carries this sigma, above the initializer's global_sigma_xy_m (500 m),
+  // which asks it for a global search.
+  double reinit_global_sigma_xy_m = 1000.0;
   // POSE between keyframes: the odometry (ODOM) carried by the latest map-from-odom.
   bool pose_between_keyframes = true;
   LocalizerConfig localizer;
@@ -61,6 +66,7 @@ struct OptimizerProcessConfig {
     v("lost_after_keyframes", lost_after_keyframes);
     v("reinit_sigma_xy_m", reinit_sigma_xy_m);
     v("reinit_sigma_yaw_rad", reinit_sigma_yaw_rad);
+    v("reinit_global_sigma_xy_m", reinit_global_sigma_xy_m);
     v("pose_between_keyframes", pose_between_keyframes);
     v("localizer", localizer);
     v("map_growth", map_growth);
@@ -140,8 +146,10 @@ class OptimizerNode final : public node::Node {
   std::deque<LocalizerKeyframe> keyframes_;    // the latest, oldest first
   std::optional<InitAnswer> init_;             // to start from, once its keyframe is here
   std::optional<LocalizerOutput> last_;
+  double upkeep_ms_ = 0.0;  // Localizer::upkeep after the last POSE (not in its latency)
   Matrix6d covariance_ = Matrix6d::Identity();  // of the latest keyframe's pose
   int unmatched_in_a_row_ = 0;
+  int64_t scan_matched_since_start_ = 0;
   bool lost_ = false;
 
   Counters counters_;

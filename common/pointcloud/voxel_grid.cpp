@@ -55,12 +55,14 @@ PointCloud voxel_downsample(const PointCloud& cloud, float voxel_m) {
 
 std::vector<Eigen::Vector3f> sparse_points(const PointCloud& cloud, float voxel_m,
                                            size_t max_points) {
-  const std::vector<Eigen::Vector3f> dense = voxel_downsample(cloud, voxel_m).points;
-  const size_t stride = std::max<size_t>(1, dense.size() / std::max<size_t>(max_points, 1));
-  std::vector<Eigen::Vector3f> out;
-  out.reserve(dense.size() / stride + 1);
-  for (size_t i = 0; i < dense.size(); i += stride) {
-    out.push_back(dense[i]);
+  std::vector<Eigen::Vector3f> dense = voxel_downsample(cloud, voxel_m).points;
+  if (dense.size() <= max_points) {
+    return dense;
+  }
+  // Evenly spaced picks (a whole stride would keep up to twice max_points).
+  std::vector<Eigen::Vector3f> out(max_points);
+  for (size_t i = 0; i < max_points; ++i) {
+    out[i] = dense[i * dense.size() / max_points];
   }
   return out;
 }
