@@ -343,6 +343,12 @@ TEST(SlidingTarget, InsertsWhatIsInReachPrefetchesTheNextAndForgetsTheFar) {
   target.prefetch(index, targets, Eigen::Vector3d(300.0, 0.0, 0.0));
   EXPECT_EQ(target.submaps(), 0u);
   EXPECT_EQ(target.stage(0).num_points(), 0u);
+  // At a start, the prefetch puts in everything within reach and the next one beyond, so
+  // that the first keyframe's registration inserts nothing.
+  SlidingTarget started({0.5}, 35.0, 30.0, 200.0);
+  started.prefetch(index, targets, origin);
+  EXPECT_EQ(started.submaps(), 2u);
+  EXPECT_EQ(started.stage(0).num_points(), 80000u);
 }
 
 }  // namespace
