@@ -47,20 +47,6 @@ std::vector<LidarPoint> first_per_voxel(const std::vector<LidarPoint>& points, f
   return out;
 }
 
-// At most max_points of them, evenly strided: beyond a few thousand well-spread points,
-// more only cost registration time (the map still gets all of them).
-std::vector<Eigen::Vector3f> strided(const std::vector<Eigen::Vector3f>& points, int max_points) {
-  if (static_cast<int>(points.size()) <= max_points) {
-    return points;
-  }
-  std::vector<Eigen::Vector3f> out;
-  out.reserve(static_cast<size_t>(max_points));
-  const double stride = static_cast<double>(points.size()) / max_points;
-  for (int i = 0; i < max_points; ++i) {
-    out.push_back(points[static_cast<size_t>(i * stride)]);
-  }
-  return out;
-}
 }  // namespace
 
 void OdometryConfig::validate() const {
@@ -493,7 +479,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
   prior.T_target_source = T_local_body();
   prior.information = P_.topLeftCorner<6, 6>().inverse();
   const std::vector<Eigen::Vector3f> source =
-      strided(sweep.points_body, config_.max_registration_points);
+      evenly_spaced(sweep.points_body, static_cast<size_t>(config_.max_registration_points));
   RegistrationResult result;
   const double reach_m = prediction_reach_m();
   const bool searched = reach_m > config_.search_beyond_m;
@@ -541,7 +527,8 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
       sweep.points_body =
           deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, sweep.motion, T_body_lidar_);
       result = register_point_to_plane(
-          strided(sweep.points_body, config_.max_registration_points), map_, T_local_body(), prior,
+          evenly_spaced(sweep.points_body, static_cast<size_t>(config_.max_registration_points)),
+          map_, T_local_body(), prior,
           registration_config(config_.registration.max_correspondence_m),
           T_body_lidar_.translation());
       x_.R = result.T_target_source.linear();
@@ -662,7 +649,8 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
   // or down a slope), beyond what registration's radius reaches, and a sweep registered a
   // few metres high tilted to meet the ground (OS1-64, LiDAR-only, 5 s gaps: 3 m and 2.6
   // degrees). Each start's height is searched first, in steps of search_inlier_m.
-  const std::vector<Eigen::Vector3f> probe = strided(source, config_.search.max_points);
+  const std::vector<Eigen::Vector3f> probe =
+      evenly_spaced(source, static_cast<size_t>(config_.search.max_points));
   const double max_dz = std::min(reach_m, config_.search_max_z_m);
   const auto at_best_height = [&](Eigen::Isometry3d T) {
     const Eigen::Vector3d start = T.translation();

@@ -53,18 +53,23 @@ PointCloud voxel_downsample(const PointCloud& cloud, float voxel_m) {
   return out;
 }
 
-std::vector<Eigen::Vector3f> sparse_points(const PointCloud& cloud, float voxel_m,
+std::vector<Eigen::Vector3f> evenly_spaced(const std::vector<Eigen::Vector3f>& points,
                                            size_t max_points) {
-  std::vector<Eigen::Vector3f> dense = voxel_downsample(cloud, voxel_m).points;
-  if (dense.size() <= max_points) {
-    return dense;
+  if (points.size() <= max_points) {
+    return points;
   }
-  // Evenly spaced picks (a whole stride would keep up to twice max_points).
-  std::vector<Eigen::Vector3f> out(max_points);
+  std::vector<Eigen::Vector3f> out;
+  out.reserve(max_points);
+  const double stride = static_cast<double>(points.size()) / static_cast<double>(max_points);
   for (size_t i = 0; i < max_points; ++i) {
-    out[i] = dense[i * dense.size() / max_points];
+    out.push_back(points[static_cast<size_t>(static_cast<double>(i) * stride)]);
   }
   return out;
+}
+
+std::vector<Eigen::Vector3f> sparse_points(const PointCloud& cloud, float voxel_m,
+                                           size_t max_points) {
+  return evenly_spaced(voxel_downsample(cloud, voxel_m).points, max_points);
 }
 
 }  // namespace liloc

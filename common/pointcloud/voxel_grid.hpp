@@ -20,8 +20,12 @@ uint64_t voxel_key(const Eigen::Vector3i& index);
 // voxel_m <= 0 returns the input unchanged.
 PointCloud voxel_downsample(const PointCloud& cloud, float voxel_m);
 
-// The points of voxel_downsample, then every k-th of them so that at most max_points remain
-// (spread over the whole cloud): a registration source of bounded cost.
+// At most max_points of `points`, evenly spaced over the whole list: beyond a few thousand
+// well-spread points, more only cost registration time.
+std::vector<Eigen::Vector3f> evenly_spaced(const std::vector<Eigen::Vector3f>& points,
+                                           size_t max_points);
+
+// The points of voxel_downsample, then evenly_spaced: a registration source of bounded cost.
 std::vector<Eigen::Vector3f> sparse_points(const PointCloud& cloud, float voxel_m,
                                            size_t max_points);
 
