@@ -30,21 +30,27 @@ struct Rig : test::StreetRig {
   std::vector<liloc::status_t> status;
   int coarse_poses = 0;
   std::vector<double> coarse_sigmas_xy_m;
+  std::vector<double> coarse_x_m;
   const Eigen::Isometry3d T_odom_map =
       se3::make(so3::exp(Eigen::Vector3d(0, 0, 0.9)), Eigen::Vector3d(3, 4, 0)).inverse();
 
   // global_without_coarse false: the initializer searches only when asked (COARSE_POSE).
-  explicit Rig(const std::string& name, bool global_without_coarse = true)
+  // Without an initializer, INIT comes from the test (start()).
+  explicit Rig(const std::string& name, bool global_without_coarse = true,
+               bool with_initializer = true)
       : StreetRig("liloc_optimizer_node_" + name) {
-    InitializerNodeConfig init_config;
-    init_config.initializer.request_period_s = 0.2;
-    init_config.initializer.global_without_coarse = global_without_coarse;
-    initializer = std::make_unique<InitializerNode>(*bus, "robot0", init_config);
+    if (with_initializer) {
+      InitializerNodeConfig init_config;
+      init_config.initializer.request_period_s = 0.2;
+      init_config.initializer.global_without_coarse = global_without_coarse;
+      initializer = std::make_unique<InitializerNode>(*bus, "robot0", init_config);
+      nodes.push_back(initializer.get());
+    }
     OptimizerNodeConfig config;
     config.optimizer.request_period_s = 0.2;
     config.optimizer.status_period_s = 0.1;
     optimizer = std::make_unique<OptimizerNode>(*bus, "robot0", config);
-    nodes = {initializer.get(), optimizer.get()};
+    nodes.push_back(optimizer.get());
     bus->subscribe<liloc::odometry_t>(
         "robot0.POSE", [this](const liloc::odometry_t& m, const transport::ReceiveInfo&) {
           EXPECT_EQ(m.header.frame_id, "map");
@@ -53,14 +59,28 @@ struct Rig : test::StreetRig {
     bus->subscribe<liloc::status_t>(
         "robot0.STATUS.optimizer",
         [this](const liloc::status_t& m, const transport::ReceiveInfo&) { status.push_back(m); });
-    bus->subscribe<liloc::pose_t>(
-        "robot0.COARSE_POSE", [this](const liloc::pose_t& m, const transport::ReceiveInfo&) {
-          ++coarse_poses;
-          coarse_sigmas_xy_m.push_back(bridge::coarse_pose_from_msg(m).sigma_xy_m);
-        });
+    bus->subscribe<liloc::pose_t>("robot0.COARSE_POSE",
+                                  [this](const liloc::pose_t& m, const transport::ReceiveInfo&) {
+                                    ++coarse_poses;
+                                    const CoarsePose coarse = bridge::coarse_pose_from_msg(m);
+                                    coarse_sigmas_xy_m.push_back(coarse.sigma_xy_m);
+                                    coarse_x_m.push_back(coarse.x_m);
+                                  });
     start_server({"robot0"});
   }
   static int64_t utime_of(int64_t id) { return 1'700'000'100'000'000 + id * 100'000; }
+  // An INIT placing keyframe `id` at the street's `x`.
+  void start(int64_t id, double x) {
+    InitAnswer answer;
+    answer.localized = true;
+    answer.method = "coarse_to_fine";
+    answer.keyframe_id = id;
+    answer.utime_us = utime_of(id);
+    answer.T_map_body = truth_at(x);
+    answer.covariance = Matrix6d::Identity() * 1e-4;
+    liloc::init_result_t msg = bridge::to_msg(answer, "robot0");
+    bus->publish("robot0.INIT", msg);
+  }
   // Keyframe `id` seen from `true_x`, where the odometry believes it at `odometry_x`.
   void keyframe(int64_t id, double true_x, double odometry_x) {
     send_keyframe(id, T_odom_map * truth_at(odometry_x),
@@ -160,15 +180,7 @@ TEST(OptimizerNode, LostTrackingAsksForAReinitializationAndRecovers) {
 TEST(OptimizerNode, LostBeforeAnyScanMatchAsksForAGlobalReinitialization) {
   Rig rig("wrong_start", false);
   rig.keyframe(0, 20.0, 20.0);
-  InitAnswer wrong;
-  wrong.localized = true;
-  wrong.method = "coarse_to_fine";
-  wrong.keyframe_id = 0;
-  wrong.utime_us = Rig::utime_of(0);
-  wrong.T_map_body = truth_at(35.0);
-  wrong.covariance = Matrix6d::Identity() * 1e-4;
-  liloc::init_result_t msg = bridge::to_msg(wrong, "robot0");
-  rig.bus->publish("robot0.INIT", msg);
+  rig.start(0, 35.0);
   ASSERT_TRUE(rig.run_until([&] { return rig.optimizer->counters().starts == 1; }));
   int64_t id = 1;
   for (; id <= 40 && rig.optimizer->counters().starts < 2; ++id) {
@@ -186,6 +198,50 @@ TEST(OptimizerNode, LostBeforeAnyScanMatchAsksForAGlobalReinitialization) {
     ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); }));
     EXPECT_LT(rig.error_m(id, 20.0 + id), 0.05) << "keyframe " << id;
   }
+}
+
+// Lost, and no answer comes (here no initializer runs; in use, a request lost on the wire or
+// a robot beyond the search around its estimate): the request goes again every
+// reinit_repeat_keyframes keyframes around the estimate of then, which moved on with the
+// odometry, and after reinit_local_requests of them as a global search.
+TEST(OptimizerNode, UnansweredReinitializationIsRepeatedThenGlobal) {
+  Rig rig("unanswered", true, false);
+  rig.keyframe(0, 20.0, 20.0);
+  rig.start(0, 20.0);
+  ASSERT_TRUE(rig.run_until([&] { return rig.optimizer->counters().starts == 1; }));
+  int64_t id = 1;
+  for (; id <= 10 && rig.optimizer->counters().scan_matched < 3; ++id) {
+    rig.keyframe(id, 20.0 + id, 20.0 + id);
+    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); })) << id;
+    rig.run_until([] { return false; }, 0.2);  // the submaps come
+  }
+  ASSERT_GE(rig.optimizer->counters().scan_matched, 3);
+  const OptimizerProcessConfig config;
+  for (const int64_t last = id + config.lost_after_keyframes +
+                            config.reinit_local_requests * config.reinit_repeat_keyframes;
+       id <= last; ++id) {
+    rig.keyframe(id, 40.0 + id, 20.0 + id);  // carried 20 m along the street
+    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); })) << id;
+  }
+  rig.run_until([] { return false; }, 0.3);
+  EXPECT_EQ(rig.optimizer->counters().lost, 1);
+  ASSERT_EQ(rig.coarse_sigmas_xy_m.size(), static_cast<size_t>(config.reinit_local_requests + 1));
+  EXPECT_EQ(rig.optimizer->counters().reinit_requests, config.reinit_local_requests + 1);
+  for (int k = 0; k < config.reinit_local_requests; ++k) {
+    EXPECT_EQ(rig.coarse_sigmas_xy_m[k], config.reinit_sigma_xy_m) << k;
+  }
+  EXPECT_EQ(rig.coarse_sigmas_xy_m.back(), config.reinit_global_sigma_xy_m);
+  for (size_t k = 1; k < rig.coarse_x_m.size(); ++k) {
+    // The estimate drove on: about a keyframe spacing (1 m) per keyframe between requests.
+    EXPECT_GT(std::abs(rig.coarse_x_m[k] - rig.coarse_x_m[k - 1]),
+              0.5 * config.reinit_repeat_keyframes)
+        << k;
+  }
+  ASSERT_FALSE(rig.status.empty());
+  EXPECT_EQ(rig.status.back().mode, int8_t{liloc::status_t::MODE_LOST});
+  EXPECT_NE(rig.status.back().message.find("unanswered: a global re-initialization asked"),
+            std::string::npos)
+      << rig.status.back().message;
 }
 
 // Map growth end to end: robot0 drives off the end of the mapped street (the map ends at

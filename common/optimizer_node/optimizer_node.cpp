@@ -19,11 +19,12 @@ namespace liloc {
 void OptimizerProcessConfig::validate() const {
   if (!(status_period_s > 0 && status_period_s <= 600) || keep_keyframes < 1 ||
       lost_after_keyframes < 1 || !(reinit_sigma_xy_m > 0) || !(reinit_sigma_yaw_rad > 0) ||
-      !(reinit_global_sigma_xy_m >= reinit_sigma_xy_m)) {
+      !(reinit_global_sigma_xy_m >= reinit_sigma_xy_m) || reinit_repeat_keyframes < 1 ||
+      reinit_local_requests < 1) {
     throw std::invalid_argument(
-        "status_period_s must be in (0, 600], keep_keyframes and lost_after_keyframes at least 1, "
-        "the re-initialization sigmas positive, reinit_global_sigma_xy_m at least "
-        "reinit_sigma_xy_m");
+        "status_period_s must be in (0, 600], keep_keyframes, lost_after_keyframes, "
+        "reinit_repeat_keyframes and reinit_local_requests at least 1, the re-initialization "
+        "sigmas positive, reinit_global_sigma_xy_m at least reinit_sigma_xy_m");
   }
   MapClientConfig{request_period_s, max_cached_submaps}.validate();
   localizer.validate();
@@ -167,6 +168,7 @@ void OptimizerNode::try_start() {
   localizer_->start(*it, init_->T_map_body, init_->covariance);
   ++counters_.starts;
   lost_ = false;
+  requests_while_lost_ = 0;
   unmatched_in_a_row_ = 0;
   scan_matched_since_start_ = 0;
   covariance_ = init_->covariance;
@@ -220,7 +222,10 @@ void OptimizerNode::optimize(const LocalizerKeyframe& keyframe, bool publish) {
                  out.T_map_body);
   } else if (lost_ && out.scan_matched) {
     lost_ = false;
+    requests_while_lost_ = 0;
     spdlog::info("{}: tracking again at keyframe {}", robot_id_, keyframe.id);
+  } else if (lost_ && ++keyframes_since_request_ >= config_.optimizer.reinit_repeat_keyframes) {
+    ask_reinitialization(out.T_map_body);
   }
   if (!lost_) {
     state_ = std::string(rlm ? "RLM" : "ILM") + " at keyframe " + std::to_string(keyframe.id) +
@@ -235,11 +240,28 @@ void OptimizerNode::optimize(const LocalizerKeyframe& keyframe, bool publish) {
 void OptimizerNode::declare_lost(const std::string& reason, const Eigen::Isometry3d& T_map_body) {
   lost_ = true;
   ++counters_.lost;
-  const bool global = scan_matched_since_start_ == 0;
-  state_ = "LOST: " + reason +
-           (global ? "; no scan match since the start: a global re-initialization asked"
-                   : "; re-initialization asked around the estimate");
-  spdlog::warn("{}: {}", robot_id_, state_);
+  lost_reason_ = reason;
+  ask_reinitialization(T_map_body);
+}
+
+void OptimizerNode::ask_reinitialization(const Eigen::Isometry3d& T_map_body) {
+  const bool global = scan_matched_since_start_ == 0 ||
+                      requests_while_lost_ >= config_.optimizer.reinit_local_requests;
+  ++requests_while_lost_;
+  ++counters_.reinit_requests;
+  keyframes_since_request_ = 0;
+  const std::string asked =
+      scan_matched_since_start_ == 0
+          ? "no scan match since the start: a global re-initialization asked"
+      : global ? std::to_string(config_.optimizer.reinit_local_requests) +
+                     " requests around the estimate unanswered: a global re-initialization asked"
+               : "re-initialization asked around the estimate";
+  state_ =
+      "LOST: " + lost_reason_ + "; " + asked +
+      (requests_while_lost_ > 1 ? " (request " + std::to_string(requests_while_lost_) + ")" : "");
+  if (should_log(requests_while_lost_)) {
+    spdlog::warn("{}: {}", robot_id_, state_);
+  }
   CoarsePose coarse;
   coarse.x_m = T_map_body.translation().x();
   coarse.y_m = T_map_body.translation().y();
@@ -338,6 +360,7 @@ void OptimizerNode::publish_status(int64_t now_us) {
       {"starts", counters_.starts},
       {"inits_unmatched", counters_.inits_unmatched},
       {"lost", counters_.lost},
+      {"reinit_requests", counters_.reinit_requests},
       {"poses", counters_.poses},
       {"map_updates", counters_.map_updates},
       {"ilm_keyframes_sent", counters_.ilm_keyframes_sent},

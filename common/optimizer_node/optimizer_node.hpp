@@ -14,8 +14,9 @@
 // the latest map-from-odom, so that users get a pose at the scan rate. Tracking is lost
 // after lost_after_keyframes keyframes in the mapped area (RLM) whose registration the
 // gates refused in a row: the status says LOST and why, and a COARSE_POSE around the
-// current estimate asks the initializer to localize again. Keyframes optimized in ILM go to
-// the map server once their poses are final (MapGrowth).
+// current estimate asks the initializer to localize again (repeated while lost, at last as a
+// global search). Keyframes optimized in ILM go to the map server once their poses are
+// final (MapGrowth).
 
 #include <deque>
 #include <memory>
@@ -52,6 +53,12 @@ struct OptimizerProcessConfig {
   // coarse pose then carries this sigma, above the initializer's global_sigma_xy_m (500 m),
   // which asks it for a global search.
   double reinit_global_sigma_xy_m = 1000.0;
+  // While lost, the request goes again every reinit_repeat_keyframes keyframes, around the
+  // estimate then (the robot drove on from where the first request placed it, and a request
+  // can be lost on the wire); after reinit_local_requests requests around the estimate
+  // unanswered, as a global search (the estimate is no longer worth searching around).
+  int reinit_repeat_keyframes = 20;
+  int reinit_local_requests = 3;
   // POSE between keyframes: the odometry (ODOM) carried by the latest map-from-odom.
   bool pose_between_keyframes = true;
   LocalizerConfig localizer;
@@ -67,6 +74,8 @@ struct OptimizerProcessConfig {
     v("reinit_sigma_xy_m", reinit_sigma_xy_m);
     v("reinit_sigma_yaw_rad", reinit_sigma_yaw_rad);
     v("reinit_global_sigma_xy_m", reinit_global_sigma_xy_m);
+    v("reinit_repeat_keyframes", reinit_repeat_keyframes);
+    v("reinit_local_requests", reinit_local_requests);
     v("pose_between_keyframes", pose_between_keyframes);
     v("localizer", localizer);
     v("map_growth", map_growth);
@@ -107,6 +116,7 @@ class OptimizerNode final : public node::Node {
     int64_t starts = 0;           // INITs that (re)started the graph
     int64_t inits_unmatched = 0;  // INITs naming a keyframe no longer (or not yet) kept
     int64_t lost = 0;
+    int64_t reinit_requests = 0;  // COARSE_POSEs sent while lost (the first and repeats)
     int64_t poses = 0;
     int64_t map_updates = 0;              // MAP.UPDATEs sent (each in one or more messages)
     int64_t ilm_keyframes_sent = 0;       // in them
@@ -128,6 +138,9 @@ class OptimizerNode final : public node::Node {
   void publish_pose(int64_t utime_us, const Eigen::Isometry3d& T_map_body,
                     const Eigen::Vector3d& velocity_map);
   void declare_lost(const std::string& reason, const Eigen::Isometry3d& T_map_body);
+  // COARSE_POSE around T_map_body, or a global search when no scan match passed since the
+  // start or reinit_local_requests went unanswered.
+  void ask_reinitialization(const Eigen::Isometry3d& T_map_body);
   // MAP.UPDATE with the ILM keyframes that are due (all kept ones if `flush`).
   void send_map_update(bool flush);
   void publish_status(int64_t now_us);
@@ -151,6 +164,9 @@ class OptimizerNode final : public node::Node {
   int unmatched_in_a_row_ = 0;
   int64_t scan_matched_since_start_ = 0;
   bool lost_ = false;
+  std::string lost_reason_;
+  int requests_while_lost_ = 0;  // since the loss
+  int keyframes_since_request_ = 0;
 
   Counters counters_;
   std::string state_;  // what it does or waits for, or why it is lost
