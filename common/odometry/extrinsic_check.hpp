@@ -11,6 +11,9 @@
 // with v from the registered positions. The rotation about gravity is seen only through
 // the accelerations (a ground vehicle mostly turns about one axis), so both are used. The
 // fit starts from the 24 axis-aligned rotations (the usual mix-ups) and keeps the best.
+// No mount changes how fast the body turns: where the LiDAR's rates and the gyro's differ in
+// magnitude, the LiDAR-only registration lost the motion, and the check says so instead of
+// blaming the extrinsic.
 //
 // Pure: samples and poses in, an estimate out; the odometry warns with it.
 
@@ -82,6 +85,9 @@ struct ExtrinsicEstimate {
   double gravity_mps2 = 0.0;  // the fitted gravity's norm (9.8 if consistent)
   double gyro_rms_rps = 0.0;  // residuals at the estimate
   double velocity_rms_mps = 0.0;
+  // |LiDAR rotation rate| - |gyro - bias|, rms over the sweeps: no rotation of the mount
+  // changes it, so beyond noise the LiDAR registration did not follow the motion.
+  double rate_magnitude_rms_rps = 0.0;
   double motion_s = 0.0;  // time in motion the estimate used
   int sweeps = 0;
   bool warn = false;  // rotation or offset beyond the warning thresholds
