@@ -36,6 +36,10 @@ CorrelativeSearch::CorrelativeSearch(const std::vector<Eigen::Vector3f>& map_poi
 std::vector<ScoredPose> CorrelativeSearch::search(const std::vector<Eigen::Vector3f>& points_body,
                                                   const Eigen::Matrix3d& R_level_body,
                                                   const SearchWindow& window) const {
+  // A whole stride keeps between max_points and twice as many: the initializer's and the
+  // odometry's thresholds were measured so. Capped exactly (evenly_spaced), VLP-16 campus C's
+  // coarse initialization accepted a wrong pose (1 of 47, bench_init 2026-11-25); the exact
+  // cap wants max_points raised and measured again.
   std::vector<Eigen::Vector3f> points;
   const size_t stride =
       std::max<size_t>(1, points_body.size() / static_cast<size_t>(config_.max_points));

@@ -17,7 +17,7 @@ namespace liloc {
 struct CorrelativeSearchConfig {
   double cell_m = 1.0;         // occupancy cell edge, and the grid's position step
   double yaw_step_deg = 2.0;   // the grid's yaw step
-  int max_points = 300;        // query points scored (spread over the query)
+  int max_points = 300;        // query points scored: at least this, under twice (see search)
   int peaks = 4;               // best distinct poses returned
   double distinct_m = 2.0;     // peaks at least this far apart ...
   double distinct_deg = 10.0;  // ... or this far apart in yaw
