@@ -86,6 +86,16 @@ struct Rig : test::StreetRig {
     send_keyframe(id, T_odom_map * truth_at(odometry_x),
                   test::seen_from(world, {true_x, 0.3, 1.8}));
   }
+  // Keyframe `id` sent and optimized (false if it was not in time), then `settle_s` for the
+  // other nodes' turn (the initializer's answer, submap replies).
+  bool drive(int64_t id, double true_x, double odometry_x, double settle_s = 0.0) {
+    keyframe(id, true_x, odometry_x);
+    const bool optimized_in_time = run_until([&] { return optimized(id); });
+    if (settle_s > 0.0) {
+      run_until([] { return false; }, settle_s);
+    }
+    return optimized_in_time;
+  }
   double error_m(int64_t id, double true_x) const {
     const auto it = poses.find(utime_of(id));
     return it == poses.end() ? 1e9
@@ -105,8 +115,7 @@ TEST(OptimizerNode, LocalizesEveryKeyframeFromTheInitializersAnswer) {
       << (rig.status.empty() ? "" : rig.status.back().message);
   EXPECT_LT(rig.error_m(0, 20.0), 0.05);
   for (int k = 1; k <= 30; ++k) {
-    rig.keyframe(k, 20.0 + k, 20.0 + 1.02 * k);
-    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(k); })) << k;
+    ASSERT_TRUE(rig.drive(k, 20.0 + k, 20.0 + 1.02 * k)) << k;
     EXPECT_LT(rig.error_m(k, 20.0 + k), 0.05) << "keyframe " << k;
   }
   // Half-way to the next keyframe: the odometry's pose carried into the map.
@@ -145,14 +154,11 @@ TEST(OptimizerNode, LostTrackingAsksForAReinitializationAndRecovers) {
   ASSERT_TRUE(rig.run_until([&] { return rig.optimizer->counters().starts == 1; }));
   int64_t id = 1;
   for (; id <= 5; ++id) {
-    rig.keyframe(id, 20.0 + id, 20.0 + id);
-    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); }));
+    ASSERT_TRUE(rig.drive(id, 20.0 + id, 20.0 + id)) << id;
   }
   bool said_lost = false;
   for (; id <= 40 && rig.optimizer->counters().starts < 2; ++id) {
-    rig.keyframe(id, 40.0 + id, 20.0 + id);
-    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); }));
-    rig.run_until([] { return false; }, 0.2);  // the initializer's turn
+    ASSERT_TRUE(rig.drive(id, 40.0 + id, 20.0 + id, 0.2)) << id;  // then the initializer's turn
     for (const liloc::status_t& s : rig.status) {
       said_lost = said_lost || (s.mode == liloc::status_t::MODE_LOST &&
                                 s.message.find("without a scan match") != std::string::npos);
@@ -165,8 +171,7 @@ TEST(OptimizerNode, LostTrackingAsksForAReinitializationAndRecovers) {
   EXPECT_EQ(rig.coarse_sigmas_xy_m.front(), 5.0);  // it had tracked: around its estimate
   ASSERT_EQ(rig.optimizer->counters().starts, 2);
   for (const int64_t end = id + 5; id < end; ++id) {
-    rig.keyframe(id, 40.0 + id, 20.0 + id);
-    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); }));
+    ASSERT_TRUE(rig.drive(id, 40.0 + id, 20.0 + id)) << id;
     EXPECT_LT(rig.error_m(id, 40.0 + id), 0.05) << "keyframe " << id;
   }
   EXPECT_FALSE(rig.optimizer->lost());
@@ -184,9 +189,7 @@ TEST(OptimizerNode, LostBeforeAnyScanMatchAsksForAGlobalReinitialization) {
   ASSERT_TRUE(rig.run_until([&] { return rig.optimizer->counters().starts == 1; }));
   int64_t id = 1;
   for (; id <= 40 && rig.optimizer->counters().starts < 2; ++id) {
-    rig.keyframe(id, 20.0 + id, 20.0 + id);
-    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); }));
-    rig.run_until([] { return false; }, 0.2);  // the initializer's turn
+    ASSERT_TRUE(rig.drive(id, 20.0 + id, 20.0 + id, 0.2)) << id;  // then the initializer's turn
   }
   EXPECT_EQ(rig.optimizer->counters().scan_matched, 0);
   EXPECT_EQ(rig.optimizer->counters().lost, 1);
@@ -194,8 +197,7 @@ TEST(OptimizerNode, LostBeforeAnyScanMatchAsksForAGlobalReinitialization) {
   EXPECT_GT(rig.coarse_sigmas_xy_m[0], 500.0);  // the initializer's global_sigma_xy_m
   ASSERT_EQ(rig.optimizer->counters().starts, 2);
   for (const int64_t end = id + 5; id < end; ++id) {
-    rig.keyframe(id, 20.0 + id, 20.0 + id);
-    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); }));
+    ASSERT_TRUE(rig.drive(id, 20.0 + id, 20.0 + id)) << id;
     EXPECT_LT(rig.error_m(id, 20.0 + id), 0.05) << "keyframe " << id;
   }
 }
@@ -211,17 +213,14 @@ TEST(OptimizerNode, UnansweredReinitializationIsRepeatedThenGlobal) {
   ASSERT_TRUE(rig.run_until([&] { return rig.optimizer->counters().starts == 1; }));
   int64_t id = 1;
   for (; id <= 10 && rig.optimizer->counters().scan_matched < 3; ++id) {
-    rig.keyframe(id, 20.0 + id, 20.0 + id);
-    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); })) << id;
-    rig.run_until([] { return false; }, 0.2);  // the submaps come
+    ASSERT_TRUE(rig.drive(id, 20.0 + id, 20.0 + id, 0.2)) << id;  // then the submaps come
   }
   ASSERT_GE(rig.optimizer->counters().scan_matched, 3);
   const OptimizerProcessConfig config;
   for (const int64_t last = id + config.lost_after_keyframes +
                             config.reinit_local_requests * config.reinit_repeat_keyframes;
        id <= last; ++id) {
-    rig.keyframe(id, 40.0 + id, 20.0 + id);  // carried 20 m along the street
-    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(id); })) << id;
+    ASSERT_TRUE(rig.drive(id, 40.0 + id, 20.0 + id)) << id;  // carried 20 m along the street
   }
   rig.run_until([] { return false; }, 0.3);
   EXPECT_EQ(rig.optimizer->counters().lost, 1);
@@ -254,8 +253,7 @@ TEST(OptimizerNode, AnIlmStretchGrowsTheMapAndALaterSessionLocalizesThere) {
   rig.keyframe(0, 75.0, 75.0);
   ASSERT_TRUE(rig.run_until([&] { return rig.optimizer->counters().starts == 1; }));
   for (int k = 1; k <= 60; ++k) {
-    rig.keyframe(k, 75.0 + k, 75.0 + k);
-    ASSERT_TRUE(rig.run_until([&] { return rig.optimized(k); })) << k;
+    ASSERT_TRUE(rig.drive(k, 75.0 + k, 75.0 + k)) << k;
   }
   EXPECT_GE(rig.optimizer->counters().map_updates, 1);  // final ones went while it drove
   EXPECT_TRUE(rig.optimizer->finish());                 // the rest at the session's end
