@@ -2,7 +2,9 @@
 // model, campus and corridor). Each session is simulated in memory and fed to the
 // odometry as the process would receive it; the estimate is scored against ground truth.
 // With --imu on,off and --timing regular,irregular it runs each session with and without
-// the IMU, with every sweep and with sweeps dropped (gaps up to 5 s); --world-seed draws
+// the IMU, with every sweep and with sweeps dropped (gaps up to 5 s; --drop-seeds runs
+// several random drop patterns, whose ATE differs by the few sweeps after the longest
+// gaps); --world-seed draws
 // another town; --misconfig simulates a rig that differs from the configuration (the LiDAR
 // yawed 90 degrees, or its clock 20 ms late) and records what the extrinsic check said.
 // Prints a table and writes bench/results/odometry.json with, per run:
@@ -12,6 +14,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -67,6 +70,7 @@ struct Run {
   bool use_imu = true;
   int64_t world_seed = 1;
   bool irregular = false;
+  int drop_seed = 0;  // which random drop pattern (irregular only)
   std::string misconfig = "none";
   std::string extrinsic_check;  // the check's message, and when it came (s after the start)
   double extrinsic_check_at_s = -1.0;
@@ -92,7 +96,7 @@ struct Run {
 
 Run run_session(const std::string& world_kind, const std::string& lidar, const std::string& session,
                 bool use_imu, double length_scale, int trace, bool clean_imu,
-                const std::string& config_path, int64_t world_seed, bool irregular,
+                const std::string& config_path, int64_t world_seed, bool irregular, int drop_seed,
                 const std::string& misconfig) {
   sim::SimulationConfig sim_config;
   sim_config.world.kind = world_kind;
@@ -134,8 +138,9 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   run.use_imu = use_imu;
   run.world_seed = world_seed;
   run.irregular = irregular;
+  run.drop_seed = drop_seed;
   run.misconfig = misconfig;
-  SweepDropper dropper(irregular, seed + 7);
+  SweepDropper dropper(irregular, seed + 7 + static_cast<uint64_t>(drop_seed));
   std::vector<StampedPose> estimate;
   std::vector<double> cycle_ms;
   std::array<std::vector<double>, 5> stage_ms;
@@ -217,18 +222,20 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
 
 void print_row(const Run& r) {
   std::printf(
-      "| %s | %lld | %s | %s | %s | %s | %.1f | %.0f | %.3f | %.3f | %.3f | %.1f | %.1f | %.1f | "
+      "| %s | %lld | %s | %s | %s | %s%s | %.1f | %.0f | %.3f | %.3f | %.3f | %.1f | %.1f | %.1f | "
       "%.0f | %.0f | %.0f | %zu | %lld | %lld | %lld (%lld) | %.4f | %.5f | "
       "%.1f/%.1f/%.1f/%.1f/%.1f |\n",
       r.world.c_str(), static_cast<long long>(r.world_seed), r.lidar.c_str(), r.session.c_str(),
-      r.use_imu ? "yes" : "no", r.irregular ? "irregular" : "all", r.longest_gap_s,
-      r.metrics.path_length_m, r.metrics.ate_position_rmse_m, r.metrics.rpe_translation_percent,
-      r.metrics.rpe_rotation_deg_per_100m, r.latency.median_ms, r.latency.p99_ms, r.latency.max_ms,
-      r.rss_quarter_mb, r.rss_end_mb, r.peak_rss_mb, r.map_points,
-      static_cast<long long>(r.degenerate_scans), static_cast<long long>(r.searched_scans),
-      static_cast<long long>(r.lost_scans), static_cast<long long>(r.map_restarts),
-      r.accel_bias_error, r.gyro_bias_error, r.stage_median_ms[0], r.stage_median_ms[1],
-      r.stage_median_ms[2], r.stage_median_ms[3], r.stage_median_ms[4]);
+      r.use_imu ? "yes" : "no", r.irregular ? "irregular" : "all",
+      r.irregular && r.drop_seed != 0 ? (" #" + std::to_string(r.drop_seed)).c_str() : "",
+      r.longest_gap_s, r.metrics.path_length_m, r.metrics.ate_position_rmse_m,
+      r.metrics.rpe_translation_percent, r.metrics.rpe_rotation_deg_per_100m, r.latency.median_ms,
+      r.latency.p99_ms, r.latency.max_ms, r.rss_quarter_mb, r.rss_end_mb, r.peak_rss_mb,
+      r.map_points, static_cast<long long>(r.degenerate_scans),
+      static_cast<long long>(r.searched_scans), static_cast<long long>(r.lost_scans),
+      static_cast<long long>(r.map_restarts), r.accel_bias_error, r.gyro_bias_error,
+      r.stage_median_ms[0], r.stage_median_ms[1], r.stage_median_ms[2], r.stage_median_ms[3],
+      r.stage_median_ms[4]);
   std::fflush(stdout);
   std::fprintf(stderr, "%s %s %s rig %s: extrinsic check at %.1f s: %s\n", r.world.c_str(),
                r.lidar.c_str(), r.session.c_str(), r.misconfig.c_str(), r.extrinsic_check_at_s,
@@ -248,6 +255,7 @@ int main(int argc, char** argv) {
   int trace = 0;
   bool clean_imu = false;
   int world_seed = 1;
+  std::string drop_seeds = "0";
   std::string config_path;
   CommandLine cli("bench_odometry", "LiDAR-inertial odometry on simulated sessions.");
   cli.add_option("worlds", &worlds, "campus, corridor or both");
@@ -262,6 +270,10 @@ int main(int argc, char** argv) {
   cli.add_option("timing", &timing,
                  "regular, irregular (a third of the sweeps dropped at random and 1-5 s "
                  "every ~20 s) or both");
+  cli.add_option("drop-seeds", &drop_seeds,
+                 "irregular timing: comma list of the drop patterns' seeds (0: the default "
+                 "pattern); one run per pattern, since one pattern's ATE can hinge on a few "
+                 "sweeps");
   cli.add_option("misconfig", &misconfig,
                  "none, extrinsic (LiDAR simulated yawed 90 deg on the IMU, configured as "
                  "not) or clock (LiDAR clock 20 ms late, not configured); comma list");
@@ -277,6 +289,15 @@ int main(int argc, char** argv) {
             "none/extrinsic/clock: " +
             mode);
       }
+    }
+    std::vector<int> drop_seed_list;
+    for (const std::string& text : split_list(drop_seeds)) {
+      char* end = nullptr;
+      const long value = std::strtol(text.c_str(), &end, 10);
+      if (text.empty() || *end != '\0' || value < 0 || value > 1000000) {
+        throw std::invalid_argument("--drop-seeds takes non-negative integers: " + text);
+      }
+      drop_seed_list.push_back(static_cast<int>(value));
     }
     std::vector<Run> runs;
     std::printf(
@@ -296,11 +317,14 @@ int main(int argc, char** argv) {
         for (const std::string& model : models) {
           for (const std::string& imu_mode : split_list(imu)) {
             for (const std::string& timing_mode : split_list(timing)) {
-              for (const std::string& rig_mode : split_list(misconfig)) {
-                runs.push_back(run_session(world, model, session, imu_mode == "on", length_scale,
-                                           trace, clean_imu, config_path, world_seed,
-                                           timing_mode == "irregular", rig_mode));
-                print_row(runs.back());
+              const bool irregular = timing_mode == "irregular";
+              for (const int drop_seed : irregular ? drop_seed_list : std::vector<int>{0}) {
+                for (const std::string& rig_mode : split_list(misconfig)) {
+                  runs.push_back(run_session(world, model, session, imu_mode == "on", length_scale,
+                                             trace, clean_imu, config_path, world_seed, irregular,
+                                             drop_seed, rig_mode));
+                  print_row(runs.back());
+                }
               }
             }
           }
@@ -326,6 +350,8 @@ int main(int argc, char** argv) {
           .integer(r.world_seed)
           .key("sweeps")
           .string(r.irregular ? "irregular" : "all")
+          .key("drop_seed")
+          .integer(r.drop_seed)
           .key("misconfig")
           .string(r.misconfig)
           .key("extrinsic_check")

@@ -74,6 +74,9 @@ void OdometryConfig::validate() const {
     throw std::invalid_argument(
         "uncertain_iterations and search_confirming_starts must be at least 1");
   }
+  if (weak_fit_correspondences < 0) {
+    throw std::invalid_argument("weak_fit_correspondences must be at least 0 (0: no check)");
+  }
   search.validate();
   extrinsic_check.validate();
   if (!(correction_blend > 0 && correction_blend <= 1)) {
@@ -109,6 +112,7 @@ void OdometryConfig::validate() const {
                     {"max_speed_mps", max_speed_mps},
                     {"max_accel_mps2", max_accel_mps2},
                     {"max_jump_m", max_jump_m},
+                    {"weak_fit_window_s", weak_fit_window_s},
                     {"correction_max_step_m", correction_max_step_m},
                     {"correction_max_step_rad", correction_max_step_rad},
                     {"map_insert_translation_m", map_insert_translation_m},
@@ -555,6 +559,10 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
                   degenerate_s);
     est.lost_reason = reason;
   }
+  // A standing vehicle's sweeps, all from one viewpoint, match little and need not.
+  if (!est.standing) {
+    recent_fits_.emplace_back(sweep.end_utime, result.correspondences);
+  }
   if (const std::string unhealthy = health_problem(sweep, p_predicted); !unhealthy.empty()) {
     est.lost_reason = unhealthy + ": the local map restarts at the last trusted pose";
     ++counters_.health_resets;
@@ -563,7 +571,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
 }
 
 std::string LidarInertialOdometry::health_problem(const Sweep& sweep,
-                                                  const Eigen::Vector3d& p_predicted) const {
+                                                  const Eigen::Vector3d& p_predicted) {
   char text[200];
   const double dt = std::max(sweep.gap_s(), 1e-3);
   const double speed = x_.v.norm();
@@ -584,10 +592,41 @@ std::string LidarInertialOdometry::health_problem(const Sweep& sweep,
                   "the registration moved the pose %.1f m from the IMU's prediction (beyond "
                   "max_jump_m %.1f)",
                   jump, config_.max_jump_m);
+  } else if (const std::optional<double> matches = weak_fit_median(sweep.end_utime)) {
+    std::snprintf(text, sizeof(text),
+                  "for %.1f s the sweeps matched a median of %.0f planes of the local map "
+                  "(fewer than weak_fit_correspondences %d): it no longer fits what the "
+                  "LiDAR sees",
+                  config_.weak_fit_window_s, *matches, config_.weak_fit_correspondences);
   } else {
     return {};
   }
   return text;
+}
+
+std::optional<double> LidarInertialOdometry::weak_fit_median(int64_t now_us) {
+  const auto window_us = static_cast<int64_t>(config_.weak_fit_window_s * 1e6);
+  // The window must lie on the current local map: a new one matches little at first.
+  const bool full = !recent_fits_.empty() && now_us - recent_fits_.front().first >= window_us;
+  while (!recent_fits_.empty() && now_us - recent_fits_.front().first > window_us) {
+    recent_fits_.pop_front();
+  }
+  // And hold enough sweeps for a median: after a pause of seconds it may hold one.
+  constexpr size_t kMinSweeps = 10;
+  if (!full || recent_fits_.size() < kMinSweeps || config_.weak_fit_correspondences == 0) {
+    return std::nullopt;
+  }
+  std::vector<int> counts;
+  counts.reserve(recent_fits_.size());
+  for (const auto& [utime_us, correspondences] : recent_fits_) {
+    counts.push_back(correspondences);
+  }
+  const auto middle = counts.begin() + static_cast<std::ptrdiff_t>(counts.size() / 2);
+  std::nth_element(counts.begin(), middle, counts.end());
+  if (*middle >= config_.weak_fit_correspondences) {
+    return std::nullopt;
+  }
+  return static_cast<double>(*middle);
 }
 
 void LidarInertialOdometry::reset_to(const Sweep& sweep) {
@@ -614,6 +653,7 @@ void LidarInertialOdometry::restart_local_map() {
   ++counters_.map_restarts;
   map_ = VoxelHashMap(config_.map);
   have_map_insert_ = false;
+  recent_fits_.clear();
 }
 
 LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(

@@ -138,6 +138,15 @@ struct OdometryConfig {
   double max_speed_mps = 40.0;
   double max_accel_mps2 = 20.0;
   double max_jump_m = 2.0;
+  // Lost, with or without the IMU, when over the last weak_fit_window_s (all of it on the
+  // current local map) the median sweep matched fewer than weak_fit_correspondences planes:
+  // the local map no longer describes what the LiDAR sees, and the estimate drifts with
+  // whatever it still matches (sweeps standing still are not counted). A VLP-16 with its
+  // IMU that left a 3.9 s gap 0.4 m short drifted 700 m this way at 10-20 matches a sweep;
+  // healthy runs keep a median of 130 or more, and 32 at the start, before the local map
+  // fills (docs/odometry.md).
+  double weak_fit_window_s = 3.0;
+  int weak_fit_correspondences = 20;
   CorrelativeSearchConfig search;
   // Pose corrections are blended in: this fraction of what remains per sweep, at most
   // the step limits, so that the output never jumps.
@@ -203,6 +212,8 @@ struct OdometryConfig {
     v("max_speed_mps", max_speed_mps);
     v("max_accel_mps2", max_accel_mps2);
     v("max_jump_m", max_jump_m);
+    v("weak_fit_window_s", weak_fit_window_s);
+    v("weak_fit_correspondences", weak_fit_correspondences);
     v("search", search);
     v("correction_blend", correction_blend);
     v("correction_max_step_m", correction_max_step_m);
@@ -308,7 +319,11 @@ class LidarInertialOdometry {
                                    const PosePrior& prior, double reach_m) const;
   // Why the state after this sweep's update is not trusted (empty if it is); the pose
   // before the update was p_predicted.
-  std::string health_problem(const Sweep& sweep, const Eigen::Vector3d& p_predicted) const;
+  std::string health_problem(const Sweep& sweep, const Eigen::Vector3d& p_predicted);
+  // The median correspondences of the sweeps over the last weak_fit_window_s if below
+  // weak_fit_correspondences, that window lies on the current local map and holds at
+  // least 10 sweeps; drops older entries of recent_fits_.
+  std::optional<double> weak_fit_median(int64_t now_us);
   // Back to the sweep's starting state (health_problem), and a new local map.
   void reset_to(const Sweep& sweep);
   void restart_local_map();
@@ -349,6 +364,9 @@ class LidarInertialOdometry {
   int64_t next_keyframe_id_ = 0;
   int64_t sweeps_since_cleanup_ = 0;
   int64_t degenerate_since_us_ = std::numeric_limits<int64_t>::max();  // the streak's start
+  // Correspondences of the sweeps registered on the current local map while moving, with
+  // their end times, over the last weak_fit_window_s (health_problem).
+  std::deque<std::pair<int64_t, int>> recent_fits_;
   std::string last_failure_;
 };
 
