@@ -4,9 +4,9 @@
 // With --imu on,off and --timing regular,irregular it runs each session with and without
 // the IMU, with every sweep and with sweeps dropped (gaps up to 5 s; --drop-seeds runs
 // several random drop patterns, whose ATE differs by the few sweeps after the longest
-// gaps); --world-seed draws
-// another town; --misconfig simulates a rig that differs from the configuration (the LiDAR
-// yawed 90 degrees, or its clock 20 ms late) and records what the extrinsic check said.
+// gaps); --world-seed draws another town; --misconfig simulates a rig that differs from
+// the configuration (the LiDAR yawed 90 degrees, or its clock 20 ms late) and records what
+// the extrinsic check said.
 // Prints a table and writes bench/results/odometry.json with, per run:
 // session, world, world_seed, lidar, imu, sweeps, rpe_percent, ate_m, ms_median, ms_p99,
 // peak_rss_mb, ...

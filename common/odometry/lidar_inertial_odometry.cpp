@@ -592,9 +592,9 @@ std::string LidarInertialOdometry::health_problem(const Sweep& sweep,
                   "the registration moved the pose %.1f m from the IMU's prediction (beyond "
                   "max_jump_m %.1f)",
                   jump, config_.max_jump_m);
-  } else if (const std::optional<double> matches = weak_fit_median(sweep.end_utime)) {
+  } else if (const std::optional<int> matches = weak_fit_median(sweep.end_utime)) {
     std::snprintf(text, sizeof(text),
-                  "for %.1f s the sweeps matched a median of %.0f planes of the local map "
+                  "for %.1f s the sweeps matched a median of %d planes of the local map "
                   "(fewer than weak_fit_correspondences %d): it no longer fits what the "
                   "LiDAR sees",
                   config_.weak_fit_window_s, *matches, config_.weak_fit_correspondences);
@@ -604,7 +604,7 @@ std::string LidarInertialOdometry::health_problem(const Sweep& sweep,
   return text;
 }
 
-std::optional<double> LidarInertialOdometry::weak_fit_median(int64_t now_us) {
+std::optional<int> LidarInertialOdometry::weak_fit_median(int64_t now_us) {
   const auto window_us = static_cast<int64_t>(config_.weak_fit_window_s * 1e6);
   // The window must lie on the current local map: a new one matches little at first.
   const bool full = !recent_fits_.empty() && now_us - recent_fits_.front().first >= window_us;
@@ -626,7 +626,7 @@ std::optional<double> LidarInertialOdometry::weak_fit_median(int64_t now_us) {
   if (*middle >= config_.weak_fit_correspondences) {
     return std::nullopt;
   }
-  return static_cast<double>(*middle);
+  return *middle;
 }
 
 void LidarInertialOdometry::reset_to(const Sweep& sweep) {

@@ -323,7 +323,7 @@ class LidarInertialOdometry {
   // The median correspondences of the sweeps over the last weak_fit_window_s if below
   // weak_fit_correspondences, that window lies on the current local map and holds at
   // least 10 sweeps; drops older entries of recent_fits_.
-  std::optional<double> weak_fit_median(int64_t now_us);
+  std::optional<int> weak_fit_median(int64_t now_us);
   // Back to the sweep's starting state (health_problem), and a new local map.
   void reset_to(const Sweep& sweep);
   void restart_local_map();
