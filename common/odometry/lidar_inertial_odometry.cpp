@@ -94,6 +94,8 @@ void OdometryConfig::validate() const {
                     {"motion_translation_sigma_mps", motion_translation_sigma_mps},
                     {"motion_rotation_sigma_rps", motion_rotation_sigma_rps},
                     {"max_rotation_extrapolation_s", max_rotation_extrapolation_s},
+                    {"long_gap_s", long_gap_s},
+                    {"long_gap_search_m", long_gap_search_m},
                     {"correspondence_sigmas", correspondence_sigmas},
                     {"correspondence_lever_m", correspondence_lever_m},
                     {"correspondence_cap_m", correspondence_cap_m},
@@ -397,7 +399,7 @@ void LidarInertialOdometry::zero_velocity_update() {
   P_ = 0.5 * (P_ + P_.transpose());
 }
 
-void LidarInertialOdometry::update(const RegistrationResult& result) {
+void LidarInertialOdometry::update(const RegistrationResult& result, bool update_biases) {
   // The registration solved for the pose with the filter's pose marginal as prior. The
   // other states follow through their correlation with the pose, and the covariance
   // takes the LiDAR information: the iterated-EKF update, done on the pose block (both
@@ -407,9 +409,18 @@ void LidarInertialOdometry::update(const RegistrationResult& result) {
   const Matrix6d P_pp_inv = P_pp.inverse();
   const Matrix6d posterior = (P_pp_inv + result.information).inverse();
   if (config_.use_imu) {
-    const Eigen::Matrix<double, kStateDim, 6> A = P_.leftCols<6>() * P_pp_inv;
-    x_ = boxplus(x_, A * d_pose);
+    Eigen::Matrix<double, kStateDim, 6> A = P_.leftCols<6>() * P_pp_inv;
+    const StateMatrix prior = P_;
     P_ -= A * (P_pp - posterior) * A.transpose();
+    if (!update_biases) {
+      // Schmidt-Kalman: the considered states neither move nor shrink; their correlations
+      // with the others are updated as in the full update.
+      constexpr int kConsidered = kStateDim - kBg;
+      A.bottomRows<kConsidered>().setZero();
+      P_.bottomRightCorner<kConsidered, kConsidered>() =
+          prior.bottomRightCorner<kConsidered, kConsidered>();
+    }
+    x_ = boxplus(x_, A * d_pose);
     P_ = 0.5 * (P_ + P_.transpose());
   } else {
     x_.R = result.T_target_source.linear();
@@ -428,6 +439,7 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
   timed(est.timings.propagate_ms, [&] { predict_and_deskew(sweep, est); });
   if (static_cast<int>(sweep.valid.size()) >= config_.min_points) {
     timed(est.timings.register_ms, [&] { register_sweep(sweep, est); });
+    last_registered_utime_ = end_utime;
     timed(est.timings.map_ms, [&] { update_map(sweep); });
     est.keyframe = timed(est.timings.keyframe_ms, [&] { return make_keyframe(sweep); });
   } else {
@@ -462,6 +474,7 @@ void LidarInertialOdometry::predict_and_deskew(Sweep& sweep, OdometryEstimate& e
   sweep.T_local_body_before = T_local_body();
   sweep.velocity_before = x_.v;
   sweep.utime_before = state_utime_;
+  sweep.registered_before_utime = last_registered_utime_;
   predict(sweep.end_utime, sweep.motion);
   if (config_.use_imu && config_.zero_velocity_update &&
       standing_still(sweep.start_utime, sweep.end_utime)) {
@@ -485,8 +498,9 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
   const std::vector<Eigen::Vector3f> source =
       evenly_spaced(sweep.points_body, static_cast<size_t>(config_.max_registration_points));
   RegistrationResult result;
-  const double reach_m = prediction_reach_m();
-  const bool searched = reach_m > config_.search_beyond_m;
+  const bool long_gap = config_.use_imu && sweep.unregistered_s() > config_.long_gap_s;
+  const double reach_m = std::max(prediction_reach_m(), long_gap ? config_.long_gap_search_m : 0.0);
+  const bool searched = long_gap || reach_m > config_.search_beyond_m;
   if (searched) {
     ++counters_.searched_scans;
     SearchOutcome found = register_by_search(source, prior, reach_m);
@@ -496,10 +510,10 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
       // pose rather than take a pose that fits a few points.
       char reason[200];
       std::snprintf(reason, sizeof(reason),
-                    "after %.1f s without a sweep only %.0f %% of the sweep fits the local map "
-                    "(%d starts agree, %.0f %% elsewhere): the local map restarts at the "
-                    "predicted pose",
-                    sweep.gap_s(), 100.0 * found.inlier_ratio, found.agreeing_starts,
+                    "after %.1f s without a sweep registered only %.0f %% of the sweep fits "
+                    "the local map (%d starts agree, %.0f %% elsewhere): the local map "
+                    "restarts at the predicted pose",
+                    sweep.unregistered_s(), 100.0 * found.inlier_ratio, found.agreeing_starts,
                     100.0 * found.runner_up_ratio);
       est.lost_reason = reason;
       restart_local_map();
@@ -513,7 +527,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
         T_body_lidar_.translation());
   }
   const Eigen::Vector3d p_predicted = x_.p;
-  update(result);
+  update(result, !long_gap);
   if (!config_.use_imu) {
     const Vector6d twist_predicted = twist_;
     update_twist(sweep);
