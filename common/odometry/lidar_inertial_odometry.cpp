@@ -410,17 +410,16 @@ void LidarInertialOdometry::update(const RegistrationResult& result, bool update
   const Matrix6d posterior = (P_pp_inv + result.information).inverse();
   if (config_.use_imu) {
     Eigen::Matrix<double, kStateDim, 6> A = P_.leftCols<6>() * P_pp_inv;
-    const StateMatrix prior = P_;
-    P_ -= A * (P_pp - posterior) * A.transpose();
+    StateMatrix reduction = A * (P_pp - posterior) * A.transpose();
     if (!update_biases) {
       // Schmidt-Kalman: the considered states neither move nor shrink; their correlations
       // with the others are updated as in the full update.
       constexpr int kConsidered = kStateDim - kBg;
       A.bottomRows<kConsidered>().setZero();
-      P_.bottomRightCorner<kConsidered, kConsidered>() =
-          prior.bottomRightCorner<kConsidered, kConsidered>();
+      reduction.bottomRightCorner<kConsidered, kConsidered>().setZero();
     }
     x_ = boxplus(x_, A * d_pose);
+    P_ -= reduction;
     P_ = 0.5 * (P_ + P_.transpose());
   } else {
     x_.R = result.T_target_source.linear();
