@@ -88,6 +88,7 @@ struct Run {
   int64_t degenerate_scans = 0;
   int64_t searched_scans = 0;
   int64_t map_restarts = 0;
+  int64_t reanchors = 0;
   int64_t lost_scans = 0;
   int64_t keyframes = 0;
   double accel_bias_error = 0.0;
@@ -164,7 +165,7 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
         std::fprintf(stderr,
                      "t %6.1f est %8.2f %8.2f %6.2f gt %8.2f %8.2f %6.2f rpy est %6.1f %6.1f %7.1f "
                      "gt %6.1f %6.1f %7.1f fit %.3f corr %5d deg %d v %.2f ba %.3f %.3f %.3f bg "
-                     "%.4f %.4f %.4f ms %.1f%s%s\n",
+                     "%.4f %.4f %.4f ms %.1f%s%s%s%s\n",
                      t, e.T_odom_body.translation().x(), e.T_odom_body.translation().y(),
                      e.T_odom_body.translation().z(), rel_gt.translation().x(),
                      rel_gt.translation().y(), rel_gt.translation().z(), rpy_est.x(), rpy_est.y(),
@@ -172,7 +173,8 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
                      e.correspondences, e.degenerate ? 1 : 0, e.velocity_odom.norm(),
                      e.accel_bias.x(), e.accel_bias.y(), e.accel_bias.z(), e.gyro_bias.x(),
                      e.gyro_bias.y(), e.gyro_bias.z(), e.timings.total_ms,
-                     e.lost_reason.empty() ? "" : " lost: ", e.lost_reason.c_str());
+                     e.lost_reason.empty() ? "" : " lost: ", e.lost_reason.c_str(),
+                     e.reanchored.empty() ? "" : " found again: ", e.reanchored.c_str());
       }
       cycle_ms.push_back(e.timings.total_ms);
       const double stages[5] = {e.timings.preprocess_ms, e.timings.propagate_ms,
@@ -202,6 +204,7 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   run.degenerate_scans = odometry.counters().degenerate_scans;
   run.searched_scans = odometry.counters().searched_scans;
   run.map_restarts = odometry.counters().map_restarts;
+  run.reanchors = odometry.counters().reanchors;
   run.lost_scans = odometry.counters().lost_scans;
   run.keyframes = odometry.counters().keyframes;
   if (use_imu) {
@@ -223,7 +226,7 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
 void print_row(const Run& r) {
   std::printf(
       "| %s | %lld | %s | %s | %s | %s%s | %.1f | %.0f | %.3f | %.3f | %.3f | %.1f | %.1f | %.1f | "
-      "%.0f | %.0f | %.0f | %zu | %lld | %lld | %lld (%lld) | %.4f | %.5f | "
+      "%.0f | %.0f | %.0f | %zu | %lld | %lld | %lld (%lld, %lld) | %.4f | %.5f | "
       "%.1f/%.1f/%.1f/%.1f/%.1f |\n",
       r.world.c_str(), static_cast<long long>(r.world_seed), r.lidar.c_str(), r.session.c_str(),
       r.use_imu ? "yes" : "no", r.irregular ? "irregular" : "all",
@@ -233,9 +236,9 @@ void print_row(const Run& r) {
       r.latency.p99_ms, r.latency.max_ms, r.rss_quarter_mb, r.rss_end_mb, r.peak_rss_mb,
       r.map_points, static_cast<long long>(r.degenerate_scans),
       static_cast<long long>(r.searched_scans), static_cast<long long>(r.lost_scans),
-      static_cast<long long>(r.map_restarts), r.accel_bias_error, r.gyro_bias_error,
-      r.stage_median_ms[0], r.stage_median_ms[1], r.stage_median_ms[2], r.stage_median_ms[3],
-      r.stage_median_ms[4]);
+      static_cast<long long>(r.map_restarts), static_cast<long long>(r.reanchors),
+      r.accel_bias_error, r.gyro_bias_error, r.stage_median_ms[0], r.stage_median_ms[1],
+      r.stage_median_ms[2], r.stage_median_ms[3], r.stage_median_ms[4]);
   std::fflush(stdout);
   std::fprintf(stderr, "%s %s %s rig %s: extrinsic check at %.1f s: %s\n", r.world.c_str(),
                r.lidar.c_str(), r.session.c_str(), r.misconfig.c_str(), r.extrinsic_check_at_s,
@@ -304,9 +307,8 @@ int main(int argc, char** argv) {
         "| world | seed | lidar | session | imu | sweeps | gap max (s) | length (m) | ATE (m) | "
         "RPE (%%) | RPE (deg/100m) | "
         "ms median | ms p99 | ms max | RSS 1/4 (MB) | RSS end (MB) | peak RSS (MB) | "
-        "map pts | degen | searched | lost (restarts) | |ba err| | |bg err| | stages ms "
-        "(pre/prop/reg/map/kf) "
-        "|\n");
+        "map pts | degen | searched | lost (restarts, found again) | |ba err| | |bg err| | "
+        "stages ms (pre/prop/reg/map/kf) |\n");
     std::printf(
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|-"
         "--|---|"
@@ -394,6 +396,8 @@ int main(int argc, char** argv) {
           .integer(r.lost_scans)
           .key("map_restarts")
           .integer(r.map_restarts)
+          .key("reanchors")
+          .integer(r.reanchors)
           .key("accel_bias_error_mps2")
           .number(r.accel_bias_error)
           .key("gyro_bias_error_rps")

@@ -74,6 +74,9 @@ void OdometryConfig::validate() const {
     throw std::invalid_argument(
         "uncertain_iterations and search_confirming_starts must be at least 1");
   }
+  if (reanchor_attempts < 0) {
+    throw std::invalid_argument("reanchor_attempts must be at least 0 (0: never)");
+  }
   if (weak_fit_correspondences < 0) {
     throw std::invalid_argument("weak_fit_correspondences must be at least 0 (0: no check)");
   }
@@ -94,6 +97,7 @@ void OdometryConfig::validate() const {
                     {"motion_translation_sigma_mps", motion_translation_sigma_mps},
                     {"motion_rotation_sigma_rps", motion_rotation_sigma_rps},
                     {"max_rotation_extrapolation_s", max_rotation_extrapolation_s},
+                    {"pause_velocity_window_s", pause_velocity_window_s},
                     {"long_gap_s", long_gap_s},
                     {"long_gap_search_m", long_gap_search_m},
                     {"correspondence_sigmas", correspondence_sigmas},
@@ -110,6 +114,7 @@ void OdometryConfig::validate() const {
                     {"search_agree_m", search_agree_m},
                     {"search_agree_rad", search_agree_rad},
                     {"search_runner_up_fraction", search_runner_up_fraction},
+                    {"reanchor_after_s", reanchor_after_s},
                     {"lost_after_degenerate_s", lost_after_degenerate_s},
                     {"max_speed_mps", max_speed_mps},
                     {"max_accel_mps2", max_accel_mps2},
@@ -310,6 +315,23 @@ void LidarInertialOdometry::update_twist(const Sweep& sweep) {
   x_.v = x_.R * twist_.head<3>();
 }
 
+std::optional<Eigen::Vector3d> LidarInertialOdometry::average_body_velocity() const {
+  // Body-frame steps: a vehicle driving on through a turn keeps its body-frame velocity,
+  // and the average does not cut the turn's corner.
+  const int64_t since = state_utime_ - to_us(config_.pause_velocity_window_s);
+  auto first = std::lower_bound(history_.begin(), history_.end(), since,
+                                [](const HistoryEntry& e, int64_t t) { return e.utime_us < t; });
+  if (first == history_.end() || std::next(first) == history_.end()) {
+    return std::nullopt;
+  }
+  Eigen::Vector3d moved_body = Eigen::Vector3d::Zero();
+  for (auto a = first, b = std::next(first); b != history_.end(); ++a, ++b) {
+    moved_body += a->T_local_body.linear().transpose() *
+                  (b->T_local_body.translation() - a->T_local_body.translation());
+  }
+  return moved_body / ((history_.back().utime_us - first->utime_us) * 1e-6);
+}
+
 void LidarInertialOdometry::predict(int64_t end_utime, MotionProfile& motion) {
   if (config_.use_imu) {
     const PropagationStats stats =
@@ -325,6 +347,9 @@ void LidarInertialOdometry::predict(int64_t end_utime, MotionProfile& motion) {
       const double yaw_rate = (x_.R * twist_.tail<3>()).z();
       twist.tail<3>() = x_.R.transpose() * Eigen::Vector3d(0.0, 0.0, yaw_rate) *
                         (config_.max_rotation_extrapolation_s / dt);
+      if (const std::optional<Eigen::Vector3d> v_body = average_body_velocity()) {
+        twist.head<3>() = *v_body;
+      }
     }
     motion = constant_twist_motion(T_local_body(), state_utime_, end_utime, twist);
     const MotionSample& end = motion.samples().back();
@@ -439,7 +464,10 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
   if (static_cast<int>(sweep.valid.size()) >= config_.min_points) {
     timed(est.timings.register_ms, [&] { register_sweep(sweep, est); });
     last_registered_utime_ = end_utime;
-    timed(est.timings.map_ms, [&] { update_map(sweep); });
+    timed(est.timings.map_ms, [&] {
+      update_map(sweep);
+      reanchor(est);
+    });
     est.keyframe = timed(est.timings.keyframe_ms, [&] { return make_keyframe(sweep); });
   } else {
     ++counters_.scans_too_small;
@@ -502,7 +530,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
   const bool searched = long_gap || reach_m > config_.search_beyond_m;
   if (searched) {
     ++counters_.searched_scans;
-    SearchOutcome found = register_by_search(source, prior, reach_m);
+    SearchOutcome found = register_by_search(map_, source, prior, reach_m);
     if (!found.accepted) {
       // The sweep sees what the local map never did (around a corner, after a long pause):
       // nothing to place it against, so the local map restarts from it at the predicted
@@ -515,7 +543,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
                     sweep.unregistered_s(), 100.0 * found.inlier_ratio, found.agreeing_starts,
                     100.0 * found.runner_up_ratio);
       est.lost_reason = reason;
-      restart_local_map();
+      restart_keeping_anchor(prior.information, reach_m);
       return;
     }
     result = std::move(found.result);
@@ -662,26 +690,117 @@ void LidarInertialOdometry::reset_to(const Sweep& sweep) {
   restart_local_map();
 }
 
+void LidarInertialOdometry::restart_keeping_anchor(const Matrix6d& information, double reach_m) {
+  if (config_.reanchor_attempts == 0) {
+    restart_local_map();
+  } else if (anchor_) {
+    // Restarted again before the first was found (the restarted map's first sweep fit
+    // nothing either): the anchor stays the map of before the first; the error since is
+    // within the larger reach.
+    anchor_->reach_m = std::max(anchor_->reach_m, reach_m);
+    restart_local_map();
+  } else {
+    Anchor anchor{std::move(map_), information, reach_m, state_utime_, state_utime_, 0};
+    restart_local_map();
+    anchor_ = std::move(anchor);
+  }
+}
+
+void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
+  if (!anchor_ || !est.lost_reason.empty() ||
+      state_utime_ - anchor_->new_map_utime <
+          to_us(config_.reanchor_after_s * (anchor_->attempts + 1))) {
+    return;
+  }
+  ++anchor_->attempts;
+  // The whole new local map, in the body frame, is the "sweep" searched for.
+  const Eigen::Isometry3f T_body_local = T_local_body().inverse().cast<float>();
+  std::vector<Eigen::Vector3f> source =
+      evenly_spaced(map_.points(), static_cast<size_t>(config_.max_registration_points));
+  for (Eigen::Vector3f& p : source) {
+    p = T_body_local * p;
+  }
+  // The new map holds its drift since the restart, small beside the restart's error: the
+  // restart's uncertainty, around the current pose.
+  const PosePrior prior{T_local_body(), anchor_->information};
+  const SearchOutcome found = register_by_search(anchor_->map, source, prior, anchor_->reach_m);
+  if (!found.accepted) {
+    if (anchor_->attempts >= config_.reanchor_attempts) {
+      anchor_.reset();  // the new local map is the only one from now on
+    }
+    return;
+  }
+  const Eigen::Isometry3d T_old_new = found.result.T_target_source * T_local_body().inverse();
+  const Eigen::Isometry3d jump = T_local_body().inverse() * found.result.T_target_source;
+  std::vector<Eigen::Vector3f> moved = map_.points();
+  const Eigen::Isometry3f T_old_new_f = T_old_new.cast<float>();
+  for (Eigen::Vector3f& p : moved) {
+    p = T_old_new_f * p;
+  }
+  VoxelHashMap merged = std::move(anchor_->map);
+  merged.insert(moved);
+  move_local_frame(T_old_new);
+  map_ = std::move(merged);
+  char text[200];
+  std::snprintf(text, sizeof(text),
+                "the local map of %.1f s since a restart found in the one before it (%.0f %% "
+                "of its points fit): the pose moved %.2f m and %.1f deg onto it",
+                (state_utime_ - anchor_->new_map_utime) * 1e-6, 100.0 * found.inlier_ratio,
+                jump.translation().norm(), se3::rotation_angle(jump) * 180.0 / M_PI);
+  est.reanchored = text;
+  ++counters_.reanchors;
+  anchor_.reset();
+}
+
+void LidarInertialOdometry::move_local_frame(const Eigen::Isometry3d& T_old_new) {
+  const Eigen::Matrix3d& R = T_old_new.linear();
+  const Eigen::Vector3d g_new = x_.g;
+  x_.R = R * x_.R;
+  x_.p = T_old_new * x_.p;
+  x_.v = R * x_.v;
+  x_.g = R * x_.g;
+  // Pose errors are in the body frame and stay; velocity and gravity errors turn with the
+  // frame (gravity's from the tangent plane at g_new to that at R g_new).
+  StateMatrix J = StateMatrix::Identity();
+  J.block<3, 3>(kVel, kVel) = R;
+  J.block<2, 2>(kGrav, kGrav) =
+      gravity_tangent_basis(x_.g).transpose() * R * gravity_tangent_basis(g_new);
+  P_ = J * P_ * J.transpose();
+  last_insert_T_local_body_ = T_old_new * last_insert_T_local_body_;
+  last_keyframe_T_local_body_ = T_old_new * last_keyframe_T_local_body_;
+  for (HistoryEntry& h : history_) {
+    if (h.utime_us >= anchor_->first_restart_utime) {
+      h.T_local_body = T_old_new * h.T_local_body;
+    }
+  }
+}
+
 void LidarInertialOdometry::restart_local_map() {
   ++counters_.map_restarts;
+  if (anchor_) {
+    anchor_->new_map_utime = state_utime_;
+  }
   map_ = VoxelHashMap(config_.map);
   have_map_insert_ = false;
   recent_fits_.clear();
 }
 
 LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
-    const std::vector<Eigen::Vector3f>& source, const PosePrior& prior, double reach_m) const {
-  const double sigma_r = std::sqrt(P_.block<3, 3>(kRot, kRot).diagonal().maxCoeff());
-  const double yaw = so3::yaw(x_.R);
+    const VoxelHashMap& target, const std::vector<Eigen::Vector3f>& source, const PosePrior& prior,
+    double reach_m) const {
+  const Matrix6d covariance = prior.information.inverse();
+  const double sigma_r = std::sqrt(covariance.block<3, 3>(3, 3).diagonal().maxCoeff());
+  const Eigen::Isometry3d& T_guess = prior.T_target_source;
+  const double yaw = so3::yaw(T_guess.linear());
   SearchWindow window;
-  window.x_m = x_.p.x();
-  window.y_m = x_.p.y();
-  window.z_m = x_.p.z();
+  window.x_m = T_guess.translation().x();
+  window.y_m = T_guess.translation().y();
+  window.z_m = T_guess.translation().z();
   window.yaw_rad = yaw;
   window.half_xy_m = std::min(reach_m, config_.search_max_xy_m);
   window.half_yaw_rad =
       std::min(config_.correspondence_sigmas * sigma_r, config_.search_max_yaw_rad);
-  const Eigen::Matrix3d R_level_body = so3::exp(Eigen::Vector3d(0, 0, -yaw)) * x_.R;
+  const Eigen::Matrix3d R_level_body = so3::exp(Eigen::Vector3d(0, 0, -yaw)) * T_guess.linear();
   // Wider windows in coarser cells: at most 21 x 21 shifts per yaw.
   CorrelativeSearchConfig search = config_.search;
   search.cell_m = std::max(search.cell_m, window.half_xy_m / 10.0);
@@ -693,7 +812,7 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
     const float radius = static_cast<float>(config_.search_inlier_m);
     int count = 0;
     for (const Eigen::Vector3f& p : points) {
-      count += map_.nearest<1>(Tf * p, radius).count > 0;
+      count += target.nearest<1>(Tf * p, radius).count > 0;
     }
     return count;
   };
@@ -720,9 +839,9 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
     T.translation() = start + Eigen::Vector3d(0.0, 0.0, best_dz);
     return T;
   };
-  std::vector<Eigen::Isometry3d> starts{at_best_height(T_local_body())};
+  std::vector<Eigen::Isometry3d> starts{at_best_height(T_guess)};
   for (const ScoredPose& peak :
-       CorrelativeSearch(map_.points(), search).search(source, R_level_body, window)) {
+       CorrelativeSearch(target.points(), search).search(source, R_level_body, window)) {
     starts.push_back(at_best_height(peak.T_map_body));
   }
   // Each start is within a search cell of its answer, so registration refines it as a well
@@ -732,7 +851,7 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
   std::vector<std::pair<RegistrationResult, int>> answers;
   for (const Eigen::Isometry3d& start : starts) {
     RegistrationResult r =
-        register_point_to_plane(source, map_, start, prior, refine, T_body_lidar_.translation());
+        register_point_to_plane(source, target, start, prior, refine, T_body_lidar_.translation());
     const int n = inliers(r.T_target_source, source);
     answers.emplace_back(std::move(r), n);
   }

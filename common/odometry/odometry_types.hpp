@@ -57,6 +57,9 @@ struct OdometryEstimate {
   // the pose is the prediction and the local map restarted from it; or a long degenerate
   // streak without an IMU). STATUS.odometry reports it as MODE_LOST.
   std::string lost_reason;
+  // Not empty: after a restart the local map was found in the one before it and the pose
+  // moved onto it (OdometryConfig::reanchor_after_s), by how much.
+  std::string reanchored;
   // Set on the one estimate where the LiDAR-IMU extrinsic check decided (its message
   // says what it found; `warn` when the configuration looks wrong).
   std::optional<ExtrinsicEstimate> extrinsic_check;
@@ -85,6 +88,7 @@ struct OdometryCounters {
   int64_t searched_scans = 0;    // prediction beyond registration's reach: searched first
   int64_t map_restarts = 0;      // the local map restarted (a sweep placed nowhere, a reset)
   int64_t health_resets = 0;     // implausible speed, acceleration or jump: state reset
+  int64_t reanchors = 0;         // after a restart, found again in the local map of before
   int64_t lost_scans = 0;        // estimates with a lost_reason
   int64_t standstill_scans = 0;  // zero-velocity updates applied
   int64_t keyframes = 0;

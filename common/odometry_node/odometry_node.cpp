@@ -130,11 +130,12 @@ bool OdometryNode::finish() {
   spdlog::info(
       "done: {} sweeps processed ({} received, {} out of order, {} too small, {} "
       "before init, {} without IMU, {} failed), {} keyframes, {} degenerate, {} searched after "
-      "a pause, {} lost ({} local-map restarts, {} health resets); {} messages refused at the "
-      "door, {} restarts",
+      "a pause, {} lost ({} local-map restarts, {} health resets, {} found again); {} "
+      "messages refused at the door, {} restarts",
       c.scans_processed, c.scans_received, c.scans_out_of_order, c.scans_too_small,
       c.scans_before_init, c.scans_without_imu, c.scans_failed, c.keyframes, c.degenerate_scans,
-      c.searched_scans, c.lost_scans, c.map_restarts, c.health_resets, rejected_total_, restarts_);
+      c.searched_scans, c.lost_scans, c.map_restarts, c.health_resets, c.reanchors, rejected_total_,
+      restarts_);
   if (!extrinsic_check_.empty()) {
     spdlog::info("{}", extrinsic_check_);
   }
@@ -155,6 +156,10 @@ void OdometryNode::publish(const std::vector<OdometryEstimate>& estimates) {
       if (should_log(lost)) {  // the summary has the count
         spdlog::warn("lost ({} sweeps so far): {}", lost, e.lost_reason);
       }
+    }
+    if (!e.reanchored.empty()) {
+      // Rare (a restart before it) and a jump of the output: always said.
+      spdlog::warn("{}: {}", robot_id_, e.reanchored);
     }
     if (e.extrinsic_check) {
       extrinsic_check_ = e.extrinsic_check->message;
@@ -218,6 +223,7 @@ void OdometryNode::publish_status(const OdometryEstimate* e, int64_t utime_us) {
                      {"searched_scans", c.searched_scans},
                      {"map_restarts", c.map_restarts},
                      {"health_resets", c.health_resets},
+                     {"reanchors", c.reanchors},
                      {"lost_scans", c.lost_scans},
                      {"standstill_scans", c.standstill_scans},
                      {"keyframes", c.keyframes},
@@ -239,6 +245,8 @@ void OdometryNode::publish_status(const OdometryEstimate* e, int64_t utime_us) {
   } else if (!e->lost_reason.empty()) {
     report.mode = liloc::status_t::MODE_LOST;
     report.message = e->lost_reason;
+  } else if (!e->reanchored.empty()) {
+    report.message = e->reanchored;
   } else if (!e->registered) {
     report.message = "sweep too small to register: pose from the motion model";
   } else if (e->degenerate) {
