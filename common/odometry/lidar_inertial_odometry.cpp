@@ -97,7 +97,6 @@ void OdometryConfig::validate() const {
                     {"motion_translation_sigma_mps", motion_translation_sigma_mps},
                     {"motion_rotation_sigma_rps", motion_rotation_sigma_rps},
                     {"max_rotation_extrapolation_s", max_rotation_extrapolation_s},
-                    {"pause_velocity_window_s", pause_velocity_window_s},
                     {"long_gap_s", long_gap_s},
                     {"long_gap_search_m", long_gap_search_m},
                     {"correspondence_sigmas", correspondence_sigmas},
@@ -315,23 +314,6 @@ void LidarInertialOdometry::update_twist(const Sweep& sweep) {
   x_.v = x_.R * twist_.head<3>();
 }
 
-std::optional<Eigen::Vector3d> LidarInertialOdometry::average_body_velocity() const {
-  // Body-frame steps: a vehicle driving on through a turn keeps its body-frame velocity,
-  // and the average does not cut the turn's corner.
-  const int64_t since = state_utime_ - to_us(config_.pause_velocity_window_s);
-  auto first = std::lower_bound(history_.begin(), history_.end(), since,
-                                [](const HistoryEntry& e, int64_t t) { return e.utime_us < t; });
-  if (first == history_.end() || std::next(first) == history_.end()) {
-    return std::nullopt;
-  }
-  Eigen::Vector3d moved_body = Eigen::Vector3d::Zero();
-  for (auto a = first, b = std::next(first); b != history_.end(); ++a, ++b) {
-    moved_body += a->T_local_body.linear().transpose() *
-                  (b->T_local_body.translation() - a->T_local_body.translation());
-  }
-  return moved_body / ((history_.back().utime_us - first->utime_us) * 1e-6);
-}
-
 void LidarInertialOdometry::predict(int64_t end_utime, MotionProfile& motion) {
   if (config_.use_imu) {
     const PropagationStats stats =
@@ -347,9 +329,6 @@ void LidarInertialOdometry::predict(int64_t end_utime, MotionProfile& motion) {
       const double yaw_rate = (x_.R * twist_.tail<3>()).z();
       twist.tail<3>() = x_.R.transpose() * Eigen::Vector3d(0.0, 0.0, yaw_rate) *
                         (config_.max_rotation_extrapolation_s / dt);
-      if (const std::optional<Eigen::Vector3d> v_body = average_body_velocity()) {
-        twist.head<3>() = *v_body;
-      }
     }
     motion = constant_twist_motion(T_local_body(), state_utime_, end_utime, twist);
     const MotionSample& end = motion.samples().back();

@@ -78,11 +78,6 @@ struct OdometryConfig {
   // up to 71 degrees, which the level search and, after a restart, every later sweep
   // inherit.
   double max_rotation_extrapolation_s = 0.5;
-  // Across such a pause the velocity carried is the body frame's average over the last
-  // pause_velocity_window_s, not the difference of the last two sweeps: one sweep
-  // registered 0.6 m sideways in a turn (HDL-32E without an IMU), carried across a pause
-  // of 4.8 s, put the prediction 50 m off, beyond the search's reach.
-  double pause_velocity_window_s = 1.0;
   // With the IMU, the sweep after more than long_gap_s without one registered (dropped
   // sweeps, a stalled driver, a blocked LiDAR's tiny sweeps) is placed by the correlative
   // search (below) within at least long_gap_search_m, and updates pose and velocity only:
@@ -213,7 +208,6 @@ struct OdometryConfig {
     v("motion_translation_sigma_mps", motion_translation_sigma_mps);
     v("motion_rotation_sigma_rps", motion_rotation_sigma_rps);
     v("max_rotation_extrapolation_s", max_rotation_extrapolation_s);
-    v("pause_velocity_window_s", pause_velocity_window_s);
     v("long_gap_s", long_gap_s);
     v("long_gap_search_m", long_gap_search_m);
     v("map", map);
@@ -328,9 +322,6 @@ class LidarInertialOdometry {
                                              int64_t t1_us, const Vector6d& twist);
   // Without an IMU: the twist from the previous sweep's end to the current state.
   void update_twist(const Sweep& sweep);
-  // The body-frame velocity averaged over the pose history's last pause_velocity_window_s
-  // (none if it holds fewer than two poses there).
-  std::optional<Eigen::Vector3d> average_body_velocity() const;
   // With update_biases false, biases and gravity keep their estimate and covariance
   // (long_gap_s).
   void update(const RegistrationResult& result, bool update_biases);
