@@ -693,9 +693,10 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
   }
   ++anchor_->attempts;
   // The whole new local map, in the body frame, is the "sweep" searched for.
+  const std::vector<Eigen::Vector3f> new_map_points = map_.points();
   const Eigen::Isometry3f T_body_local = T_local_body().inverse().cast<float>();
   std::vector<Eigen::Vector3f> source =
-      evenly_spaced(map_.points(), static_cast<size_t>(config_.max_registration_points));
+      evenly_spaced(new_map_points, static_cast<size_t>(config_.max_registration_points));
   for (Eigen::Vector3f& p : source) {
     p = T_body_local * p;
   }
@@ -711,10 +712,11 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
   }
   const Eigen::Isometry3d T_old_new = found.result.T_target_source * T_local_body().inverse();
   const Eigen::Isometry3d jump = T_local_body().inverse() * found.result.T_target_source;
-  std::vector<Eigen::Vector3f> moved = map_.points();
   const Eigen::Isometry3f T_old_new_f = T_old_new.cast<float>();
-  for (Eigen::Vector3f& p : moved) {
-    p = T_old_new_f * p;
+  std::vector<Eigen::Vector3f> moved;
+  moved.reserve(new_map_points.size());
+  for (const Eigen::Vector3f& p : new_map_points) {
+    moved.push_back(T_old_new_f * p);
   }
   VoxelHashMap merged = std::move(anchor_->map);
   merged.insert(moved);
@@ -725,7 +727,7 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
                 "the local map of %.1f s since a restart found in the one before it (%.0f %% "
                 "of its points fit): the pose moved %.2f m and %.1f deg onto it",
                 (state_utime_ - anchor_->new_map_utime) * 1e-6, 100.0 * found.inlier_ratio,
-                jump.translation().norm(), se3::rotation_angle(jump) * 180.0 / M_PI);
+                jump.translation().norm(), se3::rotation_angle(jump) * so3::kRadToDeg);
   est.reanchored = text;
   ++counters_.reanchors;
   anchor_.reset();
