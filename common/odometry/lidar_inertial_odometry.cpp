@@ -720,7 +720,7 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
   }
   VoxelHashMap merged = std::move(anchor_->map);
   merged.insert(moved);
-  move_local_frame(T_old_new);
+  move_local_frame(T_old_new, anchor_->first_restart_utime);
   map_ = std::move(merged);
   char text[200];
   std::snprintf(text, sizeof(text),
@@ -733,7 +733,8 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
   anchor_.reset();
 }
 
-void LidarInertialOdometry::move_local_frame(const Eigen::Isometry3d& T_old_new) {
+void LidarInertialOdometry::move_local_frame(const Eigen::Isometry3d& T_old_new,
+                                             int64_t since_utime) {
   const Eigen::Matrix3d& R = T_old_new.linear();
   const Eigen::Vector3d g_new = x_.g;
   x_.R = R * x_.R;
@@ -750,7 +751,7 @@ void LidarInertialOdometry::move_local_frame(const Eigen::Isometry3d& T_old_new)
   last_insert_T_local_body_ = T_old_new * last_insert_T_local_body_;
   last_keyframe_T_local_body_ = T_old_new * last_keyframe_T_local_body_;
   for (HistoryEntry& h : history_) {
-    if (h.utime_us >= anchor_->first_restart_utime) {
+    if (h.utime_us >= since_utime) {
       h.T_local_body = T_old_new * h.T_local_body;
     }
   }

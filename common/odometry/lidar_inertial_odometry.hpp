@@ -361,9 +361,9 @@ class LidarInertialOdometry {
   // Searches for the local map in the anchor's when it is due (reanchor_after_s) and
   // moves onto it if found; est.reanchored says by how much.
   void reanchor(OdometryEstimate& est);
-  // Re-expresses the state, its covariance, the pose history since the anchor and the
+  // Re-expresses the state, its covariance, the pose history from since_utime on and the
   // pose bookkeeping in another local frame.
-  void move_local_frame(const Eigen::Isometry3d& T_old_new);
+  void move_local_frame(const Eigen::Isometry3d& T_old_new, int64_t since_utime);
   // Why the state after this sweep's update is not trusted (empty if it is); the pose
   // before the update was p_predicted.
   std::string health_problem(const Sweep& sweep, const Eigen::Vector3d& p_predicted);
