@@ -87,6 +87,7 @@ struct Run {
   size_t map_points = 0;
   int64_t degenerate_scans = 0;
   int64_t searched_scans = 0;
+  int64_t second_guesses = 0;
   int64_t map_restarts = 0;
   int64_t reanchors = 0;
   int64_t lost_scans = 0;
@@ -203,6 +204,7 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   run.map_points = odometry.map_points();
   run.degenerate_scans = odometry.counters().degenerate_scans;
   run.searched_scans = odometry.counters().searched_scans;
+  run.second_guesses = odometry.counters().second_guesses;
   run.map_restarts = odometry.counters().map_restarts;
   run.reanchors = odometry.counters().reanchors;
   run.lost_scans = odometry.counters().lost_scans;
@@ -226,7 +228,7 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
 void print_row(const Run& r) {
   std::printf(
       "| %s | %lld | %s | %s | %s | %s%s | %.1f | %.0f | %.3f | %.3f | %.3f | %.1f | %.1f | %.1f | "
-      "%.0f | %.0f | %.0f | %zu | %lld | %lld | %lld (%lld, %lld) | %.4f | %.5f | "
+      "%.0f | %.0f | %.0f | %zu | %lld | %lld (%lld) | %lld (%lld, %lld) | %.4f | %.5f | "
       "%.1f/%.1f/%.1f/%.1f/%.1f |\n",
       r.world.c_str(), static_cast<long long>(r.world_seed), r.lidar.c_str(), r.session.c_str(),
       r.use_imu ? "yes" : "no", r.irregular ? "irregular" : "all",
@@ -235,10 +237,11 @@ void print_row(const Run& r) {
       r.metrics.rpe_translation_percent, r.metrics.rpe_rotation_deg_per_100m, r.latency.median_ms,
       r.latency.p99_ms, r.latency.max_ms, r.rss_quarter_mb, r.rss_end_mb, r.peak_rss_mb,
       r.map_points, static_cast<long long>(r.degenerate_scans),
-      static_cast<long long>(r.searched_scans), static_cast<long long>(r.lost_scans),
-      static_cast<long long>(r.map_restarts), static_cast<long long>(r.reanchors),
-      r.accel_bias_error, r.gyro_bias_error, r.stage_median_ms[0], r.stage_median_ms[1],
-      r.stage_median_ms[2], r.stage_median_ms[3], r.stage_median_ms[4]);
+      static_cast<long long>(r.searched_scans), static_cast<long long>(r.second_guesses),
+      static_cast<long long>(r.lost_scans), static_cast<long long>(r.map_restarts),
+      static_cast<long long>(r.reanchors), r.accel_bias_error, r.gyro_bias_error,
+      r.stage_median_ms[0], r.stage_median_ms[1], r.stage_median_ms[2], r.stage_median_ms[3],
+      r.stage_median_ms[4]);
   std::fflush(stdout);
   std::fprintf(stderr, "%s %s %s rig %s: extrinsic check at %.1f s: %s\n", r.world.c_str(),
                r.lidar.c_str(), r.session.c_str(), r.misconfig.c_str(), r.extrinsic_check_at_s,
@@ -307,8 +310,8 @@ int main(int argc, char** argv) {
         "| world | seed | lidar | session | imu | sweeps | gap max (s) | length (m) | ATE (m) | "
         "RPE (%%) | RPE (deg/100m) | "
         "ms median | ms p99 | ms max | RSS 1/4 (MB) | RSS end (MB) | peak RSS (MB) | "
-        "map pts | degen | searched | lost (restarts, found again) | |ba err| | |bg err| | "
-        "stages ms (pre/prop/reg/map/kf) |\n");
+        "map pts | degen | searched (second guess) | lost (restarts, found again) | "
+        "|ba err| | |bg err| | stages ms (pre/prop/reg/map/kf) |\n");
     std::printf(
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|-"
         "--|---|"
@@ -392,6 +395,8 @@ int main(int argc, char** argv) {
           .integer(r.degenerate_scans)
           .key("searched_scans")
           .integer(r.searched_scans)
+          .key("second_guesses")
+          .integer(r.second_guesses)
           .key("lost_scans")
           .integer(r.lost_scans)
           .key("map_restarts")

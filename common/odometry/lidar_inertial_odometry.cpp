@@ -74,6 +74,9 @@ void OdometryConfig::validate() const {
     throw std::invalid_argument(
         "uncertain_iterations and search_confirming_starts must be at least 1");
   }
+  if (!(second_guess_window_s >= 0)) {
+    throw std::invalid_argument("second_guess_window_s must be at least 0 (0: one guess)");
+  }
   if (reanchor_attempts < 0) {
     throw std::invalid_argument("reanchor_attempts must be at least 0 (0: never)");
   }
@@ -314,13 +317,31 @@ void LidarInertialOdometry::update_twist(const Sweep& sweep) {
   x_.v = x_.R * twist_.head<3>();
 }
 
-void LidarInertialOdometry::predict(int64_t end_utime, MotionProfile& motion) {
+std::optional<Eigen::Vector3d> LidarInertialOdometry::average_body_velocity() const {
+  // Body-frame steps: a vehicle driving on through a turn keeps its body-frame velocity,
+  // and the average does not cut the turn's corner.
+  const int64_t since = state_utime_ - to_us(config_.second_guess_window_s);
+  auto first = std::lower_bound(history_.begin(), history_.end(), since,
+                                [](const HistoryEntry& e, int64_t t) { return e.utime_us < t; });
+  if (first == history_.end() || std::next(first) == history_.end()) {
+    return std::nullopt;
+  }
+  Eigen::Vector3d moved_body = Eigen::Vector3d::Zero();
+  for (auto a = first, b = std::next(first); b != history_.end(); ++a, ++b) {
+    moved_body += a->T_local_body.linear().transpose() *
+                  (b->T_local_body.translation() - a->T_local_body.translation());
+  }
+  return moved_body / ((history_.back().utime_us - first->utime_us) * 1e-6);
+}
+
+void LidarInertialOdometry::predict(Sweep& sweep) {
+  const int64_t end_utime = sweep.end_utime;
   if (config_.use_imu) {
     const PropagationStats stats =
         propagate(x_, P_, state_utime_, end_utime, imu_.between(state_utime_, end_utime),
-                  config_.imu, &motion);
+                  config_.imu, &sweep.motion);
     counters_.imu_gaps += stats.gaps;
-    last_omega_ = motion.samples().back().omega_body;
+    last_omega_ = sweep.motion.samples().back().omega_body;
   } else {
     const double dt = (end_utime - state_utime_) * 1e-6;
     Vector6d twist = twist_;
@@ -329,9 +350,20 @@ void LidarInertialOdometry::predict(int64_t end_utime, MotionProfile& motion) {
       const double yaw_rate = (x_.R * twist_.tail<3>()).z();
       twist.tail<3>() = x_.R.transpose() * Eigen::Vector3d(0.0, 0.0, yaw_rate) *
                         (config_.max_rotation_extrapolation_s / dt);
+      if (config_.second_guess_window_s > 0.0) {
+        if (const std::optional<Eigen::Vector3d> v_body = average_body_velocity()) {
+          Vector6d averaged = twist;
+          averaged.head<3>() = *v_body;
+          const MotionSample end =
+              constant_twist_motion(T_local_body(), state_utime_, end_utime, averaged)
+                  .samples()
+                  .back();
+          sweep.T_local_body_second_guess = se3::make(end.R, end.p);
+        }
+      }
     }
-    motion = constant_twist_motion(T_local_body(), state_utime_, end_utime, twist);
-    const MotionSample& end = motion.samples().back();
+    sweep.motion = constant_twist_motion(T_local_body(), state_utime_, end_utime, twist);
+    const MotionSample& end = sweep.motion.samples().back();
     x_.R = end.R;
     x_.p = end.p;
     x_.v = end.v;
@@ -481,7 +513,7 @@ void LidarInertialOdometry::predict_and_deskew(Sweep& sweep, OdometryEstimate& e
   sweep.velocity_before = x_.v;
   sweep.utime_before = state_utime_;
   sweep.registered_before_utime = last_registered_utime_;
-  predict(sweep.end_utime, sweep.motion);
+  predict(sweep);
   if (config_.use_imu && config_.zero_velocity_update &&
       standing_still(sweep.start_utime, sweep.end_utime)) {
     zero_velocity_update();
@@ -509,7 +541,18 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
   const bool searched = long_gap || reach_m > config_.search_beyond_m;
   if (searched) {
     ++counters_.searched_scans;
-    SearchOutcome found = register_by_search(map_, source, prior, reach_m);
+    std::vector<PosePrior> guesses{prior};
+    if (sweep.T_local_body_second_guess) {
+      // Beyond the first guess's window the second is searched too (second_guess_window_s).
+      const Eigen::Vector2d apart =
+          (sweep.T_local_body_second_guess->translation() - prior.T_target_source.translation())
+              .head<2>();
+      if (apart.lpNorm<Eigen::Infinity>() > std::min(reach_m, config_.search_max_xy_m)) {
+        guesses.push_back({*sweep.T_local_body_second_guess, prior.information});
+        ++counters_.second_guesses;
+      }
+    }
+    SearchOutcome found = register_by_search(map_, source, guesses, reach_m);
     if (!found.accepted) {
       // The sweep sees what the local map never did (around a corner, after a long pause):
       // nothing to place it against, so the local map restarts from it at the predicted
@@ -703,7 +746,7 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
   // The new map holds its drift since the restart, small beside the restart's error: the
   // restart's uncertainty, around the current pose.
   const PosePrior prior{T_local_body(), anchor_->information};
-  const SearchOutcome found = register_by_search(anchor_->map, source, prior, anchor_->reach_m);
+  const SearchOutcome found = register_by_search(anchor_->map, source, {prior}, anchor_->reach_m);
   if (!found.accepted) {
     if (anchor_->attempts >= config_.reanchor_attempts) {
       anchor_.reset();  // the new local map is the only one from now on
@@ -768,24 +811,12 @@ void LidarInertialOdometry::restart_local_map() {
 }
 
 LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
-    const VoxelHashMap& target, const std::vector<Eigen::Vector3f>& source, const PosePrior& prior,
-    double reach_m) const {
-  const Matrix6d covariance = prior.information.inverse();
-  const double sigma_r = std::sqrt(covariance.block<3, 3>(3, 3).diagonal().maxCoeff());
-  const Eigen::Isometry3d& T_guess = prior.T_target_source;
-  const double yaw = so3::yaw(T_guess.linear());
-  SearchWindow window;
-  window.x_m = T_guess.translation().x();
-  window.y_m = T_guess.translation().y();
-  window.z_m = T_guess.translation().z();
-  window.yaw_rad = yaw;
-  window.half_xy_m = std::min(reach_m, config_.search_max_xy_m);
-  window.half_yaw_rad =
-      std::min(config_.correspondence_sigmas * sigma_r, config_.search_max_yaw_rad);
-  const Eigen::Matrix3d R_level_body = so3::exp(Eigen::Vector3d(0, 0, -yaw)) * T_guess.linear();
+    const VoxelHashMap& target, const std::vector<Eigen::Vector3f>& source,
+    const std::vector<PosePrior>& guesses, double reach_m) const {
+  const double half_xy_m = std::min(reach_m, config_.search_max_xy_m);
   // Wider windows in coarser cells: at most 21 x 21 shifts per yaw.
   CorrelativeSearchConfig search = config_.search;
-  search.cell_m = std::max(search.cell_m, window.half_xy_m / 10.0);
+  search.cell_m = std::max(search.cell_m, half_xy_m / 10.0);
   // Scored by the points that land within search_inlier_m of a map point: along a street,
   // a start shifted by a metre finds as many planes (its walls) but not its poles and
   // corners.
@@ -821,21 +852,36 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
     T.translation() = start + Eigen::Vector3d(0.0, 0.0, best_dz);
     return T;
   };
-  std::vector<Eigen::Isometry3d> starts{at_best_height(T_guess)};
-  for (const ScoredPose& peak :
-       CorrelativeSearch(target.points(), search).search(source, R_level_body, window)) {
-    starts.push_back(at_best_height(peak.T_map_body));
-  }
   // Each start is within a search cell of its answer, so registration refines it as a well
-  // predicted sweep; the prediction's wide prior still holds what the scan leaves weak (a
+  // predicted sweep; its guess's wide prior still holds what the scan leaves weak (a
   // street's length).
   const RegistrationConfig refine = registration_config(search.cell_m);
+  const CorrelativeSearch correlative(target.points(), search);
   std::vector<std::pair<RegistrationResult, int>> answers;
-  for (const Eigen::Isometry3d& start : starts) {
-    RegistrationResult r =
-        register_point_to_plane(source, target, start, prior, refine, T_body_lidar_.translation());
-    const int n = inliers(r.T_target_source, source);
-    answers.emplace_back(std::move(r), n);
+  for (const PosePrior& guess : guesses) {
+    const Eigen::Isometry3d& T_guess = guess.T_target_source;
+    const double yaw = so3::yaw(T_guess.linear());
+    const Matrix6d covariance = guess.information.inverse();
+    const double sigma_r = std::sqrt(covariance.block<3, 3>(3, 3).diagonal().maxCoeff());
+    SearchWindow window;
+    window.x_m = T_guess.translation().x();
+    window.y_m = T_guess.translation().y();
+    window.z_m = T_guess.translation().z();
+    window.yaw_rad = yaw;
+    window.half_xy_m = half_xy_m;
+    window.half_yaw_rad =
+        std::min(config_.correspondence_sigmas * sigma_r, config_.search_max_yaw_rad);
+    const Eigen::Matrix3d R_level_body = so3::exp(Eigen::Vector3d(0, 0, -yaw)) * T_guess.linear();
+    std::vector<Eigen::Isometry3d> starts{at_best_height(T_guess)};
+    for (const ScoredPose& peak : correlative.search(source, R_level_body, window)) {
+      starts.push_back(at_best_height(peak.T_map_body));
+    }
+    for (const Eigen::Isometry3d& start : starts) {
+      RegistrationResult r = register_point_to_plane(source, target, start, guess, refine,
+                                                     T_body_lidar_.translation());
+      const int n = inliers(r.T_target_source, source);
+      answers.emplace_back(std::move(r), n);
+    }
   }
   const auto best =
       std::max_element(answers.begin(), answers.end(),

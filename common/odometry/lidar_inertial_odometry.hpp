@@ -78,6 +78,13 @@ struct OdometryConfig {
   // up to 71 degrees, which the level search and, after a restart, every later sweep
   // inherit.
   double max_rotation_extrapolation_s = 0.5;
+  // Across such a pause the last step's velocity is one guess; the body-frame velocity
+  // averaged over the last second_guess_window_s is another. Where the two predictions lie
+  // farther apart than the search window reaches, both are searched: one sweep registered
+  // 0.6 m sideways in a turn (HDL-32E without an IMU), its velocity carried across 4.8 s,
+  // put the prediction 50 m off; carrying the average instead, always, upset Mid-360's
+  // close acceptances (docs/odometry.md). 0: one guess.
+  double second_guess_window_s = 1.0;
   // With the IMU, the sweep after more than long_gap_s without one registered (dropped
   // sweeps, a stalled driver, a blocked LiDAR's tiny sweeps) is placed by the correlative
   // search (below) within at least long_gap_search_m, and updates pose and velocity only:
@@ -208,6 +215,7 @@ struct OdometryConfig {
     v("motion_translation_sigma_mps", motion_translation_sigma_mps);
     v("motion_rotation_sigma_rps", motion_rotation_sigma_rps);
     v("max_rotation_extrapolation_s", max_rotation_extrapolation_s);
+    v("second_guess_window_s", second_guess_window_s);
     v("long_gap_s", long_gap_s);
     v("long_gap_search_m", long_gap_search_m);
     v("map", map);
@@ -296,6 +304,9 @@ class LidarInertialOdometry {
     Eigen::Vector3d velocity_before = Eigen::Vector3d::Zero();
     int64_t utime_before = 0;
     int64_t registered_before_utime = 0;  // the end of the last sweep registered
+    // Without an IMU, across a pause: the pose predicted with the last second's velocity
+    // (second_guess_window_s).
+    std::optional<Eigen::Isometry3d> T_local_body_second_guess;
     // Seconds the prediction spanned: from the previous sweep's end to this one's.
     double gap_s() const { return (end_utime - utime_before) * 1e-6; }
     // Seconds since a sweep last checked the prediction: longer than gap_s() after sweeps
@@ -316,12 +327,17 @@ class LidarInertialOdometry {
   std::optional<Keyframe> make_keyframe(const Sweep& sweep);
   void finish_estimate(OdometryEstimate& est);
 
-  void predict(int64_t end_utime, MotionProfile& motion);
+  // Propagates the state to the sweep's end: the sweep's motion and, without an IMU
+  // across a pause, its second guess.
+  void predict(Sweep& sweep);
   // The body's motion at a constant body-frame twist (linear m/s, angular rad/s).
   static MotionProfile constant_twist_motion(const Eigen::Isometry3d& T_start, int64_t t0_us,
                                              int64_t t1_us, const Vector6d& twist);
   // Without an IMU: the twist from the previous sweep's end to the current state.
   void update_twist(const Sweep& sweep);
+  // The body-frame velocity averaged over the pose history's last second_guess_window_s
+  // (none if it holds fewer than two poses there).
+  std::optional<Eigen::Vector3d> average_body_velocity() const;
   // With update_biases false, biases and gravity keep their estimate and covariance
   // (long_gap_s).
   void update(const RegistrationResult& result, bool update_biases);
@@ -334,9 +350,10 @@ class LidarInertialOdometry {
   // How far the prediction may be off at a point correspondence_lever_m away, at
   // correspondence_sigmas.
   double prediction_reach_m() const;
-  // Registration from the starts of a correlative search around the prediction (within
-  // reach_m, prediction_reach_m()): the answer with the most points within
-  // search_inlier_m of the map, and how well it is confirmed.
+  // Registration from the starts of correlative searches around each guess (within
+  // reach_m, prediction_reach_m(); each guess is the prior of its starts' refinement): the
+  // answer with the most points within search_inlier_m of the map, and how well it is
+  // confirmed.
   struct SearchOutcome {
     RegistrationResult result;
     double inlier_ratio = 0.0;
@@ -346,7 +363,7 @@ class LidarInertialOdometry {
   };
   SearchOutcome register_by_search(const VoxelHashMap& target,
                                    const std::vector<Eigen::Vector3f>& source,
-                                   const PosePrior& prior, double reach_m) const;
+                                   const std::vector<PosePrior>& guesses, double reach_m) const;
   // The local map of before a restart by a rejected search (reanchor_after_s).
   struct Anchor {
     VoxelHashMap map;

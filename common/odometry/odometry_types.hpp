@@ -86,6 +86,7 @@ struct OdometryCounters {
   int64_t imu_gaps = 0;            // IMU silences longer than max_sample_gap_s
   int64_t degenerate_scans = 0;
   int64_t searched_scans = 0;    // prediction beyond registration's reach: searched first
+  int64_t second_guesses = 0;    // of those, searched around a second guess too (no IMU)
   int64_t map_restarts = 0;      // the local map restarted (a sweep placed nowhere, a reset)
   int64_t health_resets = 0;     // implausible speed, acceleration or jump: state reset
   int64_t reanchors = 0;         // after a restart, found again in the local map of before

@@ -130,12 +130,12 @@ bool OdometryNode::finish() {
   spdlog::info(
       "done: {} sweeps processed ({} received, {} out of order, {} too small, {} "
       "before init, {} without IMU, {} failed), {} keyframes, {} degenerate, {} searched after "
-      "a pause, {} lost ({} local-map restarts, {} health resets, {} found again); {} "
-      "messages refused at the door, {} restarts",
+      "a pause ({} around a second guess), {} lost ({} local-map restarts, {} health resets, "
+      "{} found again); {} messages refused at the door, {} restarts",
       c.scans_processed, c.scans_received, c.scans_out_of_order, c.scans_too_small,
       c.scans_before_init, c.scans_without_imu, c.scans_failed, c.keyframes, c.degenerate_scans,
-      c.searched_scans, c.lost_scans, c.map_restarts, c.health_resets, c.reanchors, rejected_total_,
-      restarts_);
+      c.searched_scans, c.second_guesses, c.lost_scans, c.map_restarts, c.health_resets,
+      c.reanchors, rejected_total_, restarts_);
   if (!extrinsic_check_.empty()) {
     spdlog::info("{}", extrinsic_check_);
   }
@@ -221,6 +221,7 @@ void OdometryNode::publish_status(const OdometryEstimate* e, int64_t utime_us) {
                      {"non_finite_points", non_finite_points_},
                      {"degenerate_scans", c.degenerate_scans},
                      {"searched_scans", c.searched_scans},
+                     {"second_guesses", c.second_guesses},
                      {"map_restarts", c.map_restarts},
                      {"health_resets", c.health_resets},
                      {"reanchors", c.reanchors},
