@@ -553,7 +553,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
       }
     }
     SearchOutcome found = register_by_search(map_, source, guesses, reach_m);
-    if (!found.accepted) {
+    if (!search_accepts(found, false)) {
       // The sweep sees what the local map never did (around a corner, after a long pause):
       // nothing to place it against, so the local map restarts from it at the predicted
       // pose rather than take a pose that fits a few points.
@@ -747,7 +747,7 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
   // restart's uncertainty, around the current pose.
   const PosePrior prior{T_local_body(), anchor_->information};
   const SearchOutcome found = register_by_search(anchor_->map, source, {prior}, anchor_->reach_m);
-  if (!found.accepted) {
+  if (!search_accepts(found, true)) {
     if (anchor_->attempts >= config_.reanchor_attempts) {
       anchor_.reset();  // the new local map is the only one from now on
     }
@@ -858,6 +858,7 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
   const RegistrationConfig refine = registration_config(search.cell_m);
   const CorrelativeSearch correlative(target.points(), search);
   std::vector<std::pair<RegistrationResult, int>> answers;
+  std::vector<double> prior_weights;
   for (const PosePrior& guess : guesses) {
     const Eigen::Isometry3d& T_guess = guess.T_target_source;
     const double yaw = so3::yaw(T_guess.linear());
@@ -880,6 +881,8 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
       RegistrationResult r = register_point_to_plane(source, target, start, guess, refine,
                                                      T_body_lidar_.translation());
       const int n = inliers(r.T_target_source, source);
+      const Vector6d delta = se3::minus(r.T_target_source, guess.T_target_source);
+      prior_weights.push_back(std::exp(-0.5 * delta.dot(guess.information * delta)));
       answers.emplace_back(std::move(r), n);
     }
   }
@@ -890,20 +893,28 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
   out.result = best->first;
   const double points = static_cast<double>(source.size());
   out.inlier_ratio = best->second / points;
-  for (const auto& [answer, n] : answers) {
+  out.weighted_ratio = out.inlier_ratio * prior_weights[best - answers.begin()];
+  for (size_t i = 0; i < answers.size(); ++i) {
+    const auto& [answer, n] = answers[i];
     const Eigen::Isometry3d d = best->first.T_target_source.inverse() * answer.T_target_source;
     if (d.translation().norm() <= config_.search_agree_m &&
         se3::rotation_angle(d) <= config_.search_agree_rad) {
       ++out.agreeing_starts;
     } else {
       out.runner_up_ratio = std::max(out.runner_up_ratio, n / points);
+      out.weighted_runner_up = std::max(out.weighted_runner_up, n / points * prior_weights[i]);
     }
   }
-  out.accepted = out.inlier_ratio >= config_.search_min_inlier_ratio ||
-                 (out.inlier_ratio >= config_.search_confirmed_inlier_ratio &&
-                  out.agreeing_starts >= config_.search_confirming_starts &&
-                  out.runner_up_ratio < config_.search_runner_up_fraction * out.inlier_ratio);
   return out;
+}
+
+bool LidarInertialOdometry::search_accepts(const SearchOutcome& found, bool weigh_by_prior) const {
+  const double answer = weigh_by_prior ? found.weighted_ratio : found.inlier_ratio;
+  const double rival = weigh_by_prior ? found.weighted_runner_up : found.runner_up_ratio;
+  return found.inlier_ratio >= config_.search_min_inlier_ratio ||
+         (found.inlier_ratio >= config_.search_confirmed_inlier_ratio &&
+          found.agreeing_starts >= config_.search_confirming_starts &&
+          rival < config_.search_runner_up_fraction * answer);
 }
 
 void LidarInertialOdometry::update_map(const Sweep& sweep) {
