@@ -311,7 +311,7 @@ int main(int argc, char** argv) {
         "RPE (%%) | RPE (deg/100m) | "
         "ms median | ms p99 | ms max | RSS 1/4 (MB) | RSS end (MB) | peak RSS (MB) | "
         "map pts | degen | searched (second guess) | lost (restarts, found again) | "
-        "|ba err| | |bg err| | stages ms (pre/prop/reg/map/kf) |\n");
+        "ba error (m/s^2) | bg error (rad/s) | stages ms (pre/prop/reg/map/kf) |\n");
     std::printf(
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|-"
         "--|---|"
