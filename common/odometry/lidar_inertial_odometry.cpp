@@ -857,8 +857,12 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
   // street's length).
   const RegistrationConfig refine = registration_config(search.cell_m);
   const CorrelativeSearch correlative(target.points(), search);
-  std::vector<std::pair<RegistrationResult, int>> answers;
-  std::vector<double> prior_weights;
+  struct Answer {
+    RegistrationResult result;
+    int inliers;
+    double prior_density;  // exp(-d^2 / 2), d: the Mahalanobis distance from its guess
+  };
+  std::vector<Answer> answers;
   for (const PosePrior& guess : guesses) {
     const Eigen::Isometry3d& T_guess = guess.T_target_source;
     const double yaw = so3::yaw(T_guess.linear());
@@ -882,27 +886,27 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
                                                      T_body_lidar_.translation());
       const int n = inliers(r.T_target_source, source);
       const Vector6d delta = se3::minus(r.T_target_source, guess.T_target_source);
-      prior_weights.push_back(std::exp(-0.5 * delta.dot(guess.information * delta)));
-      answers.emplace_back(std::move(r), n);
+      answers.push_back({std::move(r), n, std::exp(-0.5 * delta.dot(guess.information * delta))});
     }
   }
   const auto best =
       std::max_element(answers.begin(), answers.end(),
-                       [](const auto& a, const auto& b) { return a.second < b.second; });
+                       [](const Answer& a, const Answer& b) { return a.inliers < b.inliers; });
   SearchOutcome out;
-  out.result = best->first;
+  out.result = best->result;
   const double points = static_cast<double>(source.size());
-  out.inlier_ratio = best->second / points;
-  out.weighted_ratio = out.inlier_ratio * prior_weights[best - answers.begin()];
-  for (size_t i = 0; i < answers.size(); ++i) {
-    const auto& [answer, n] = answers[i];
-    const Eigen::Isometry3d d = best->first.T_target_source.inverse() * answer.T_target_source;
+  out.inlier_ratio = best->inliers / points;
+  out.weighted_ratio = out.inlier_ratio * best->prior_density;
+  for (const Answer& answer : answers) {
+    const double ratio = answer.inliers / points;
+    const Eigen::Isometry3d d =
+        best->result.T_target_source.inverse() * answer.result.T_target_source;
     if (d.translation().norm() <= config_.search_agree_m &&
         se3::rotation_angle(d) <= config_.search_agree_rad) {
       ++out.agreeing_starts;
     } else {
-      out.runner_up_ratio = std::max(out.runner_up_ratio, n / points);
-      out.weighted_runner_up = std::max(out.weighted_runner_up, n / points * prior_weights[i]);
+      out.runner_up_ratio = std::max(out.runner_up_ratio, ratio);
+      out.weighted_runner_up = std::max(out.weighted_runner_up, ratio * answer.prior_density);
     }
   }
   return out;
