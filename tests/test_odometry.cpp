@@ -625,6 +625,27 @@ TEST(Odometry, AfterARestartTheLocalMapIsFoundInTheOneBefore) {
   EXPECT_LT(imu_kept.error_m, drive(with_imu, false).error_m + 0.1) << imu_kept.reanchored;
 }
 
+// Without an IMU, the sweep after a pause of 2 s is placed nowhere (every search is refused
+// here) and begins a new local map at the prediction. In that map the pose is exact, so
+// the next sweep, 0.1 s later, is registered to it as any well predicted sweep, not
+// searched and refused again: one restart, and the drive after it moves as the truth does.
+// With the restart's spread kept, every later sweep was searched and restarted the map.
+TEST(Odometry, AfterARestartTheNextSweepIsRegisteredToTheNewLocalMap) {
+  const Recording& r = campus_drive();
+  const int64_t t0 = r.config.start_utime;
+  OdometryConfig config = config_for(r, false);
+  config.search_min_inlier_ratio = config.search_confirmed_inlier_ratio = 1.01;
+  LidarInertialOdometry odometry(config);
+  const Replayed run = replay(r, odometry, [&](const std::variant<ImuSample, LidarScan>& e) {
+    const LidarScan* scan = std::get_if<LidarScan>(&e);
+    const double t = scan == nullptr ? 0.0 : (scan->utime_us - t0) * 1e-6;
+    return t <= 20.0 || t >= 22.0;
+  });
+  EXPECT_EQ(odometry.counters().map_restarts, 1);
+  EXPECT_EQ(odometry.counters().searched_scans, 1);
+  run.expect_moves_as_truth(r, 23.0, 45.0);
+}
+
 // An IMU that reports a 100 m/s^2 shove for a quarter second (a knock, a corrupt
 // driver) makes the velocity implausible: the estimate says it is lost and why, goes back to
 // the last trusted state, and tracks again.

@@ -164,8 +164,8 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
         const Eigen::Vector3d rpy_est = so3::to_rpy(e.T_odom_body.linear()) * so3::kRadToDeg;
         const Eigen::Vector3d rpy_gt = so3::to_rpy(rel_gt.linear()) * so3::kRadToDeg;
         std::fprintf(stderr,
-                     "t %6.1f est %8.2f %8.2f %6.2f gt %8.2f %8.2f %6.2f rpy est %6.1f %6.1f %7.1f "
-                     "gt %6.1f %6.1f %7.1f fit %.3f corr %5d deg %d v %.2f ba %.3f %.3f %.3f bg "
+                     "t %6.1f est %9.4f %9.4f %7.4f gt %9.4f %9.4f %7.4f rpy est %7.3f %7.3f %8.3f "
+                     "gt %7.3f %7.3f %8.3f fit %.3f corr %5d deg %d v %.2f ba %.3f %.3f %.3f bg "
                      "%.4f %.4f %.4f ms %.1f%s%s%s%s\n",
                      t, e.T_odom_body.translation().x(), e.T_odom_body.translation().y(),
                      e.T_odom_body.translation().z(), rel_gt.translation().x(),

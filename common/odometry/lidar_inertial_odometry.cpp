@@ -20,6 +20,10 @@ namespace {
 
 int64_t to_us(double s) { return static_cast<int64_t>(std::llround(s * 1e6)); }
 
+// The pose's spread where the local map begins: its frame is defined there.
+constexpr double kOriginRotationSigmaRad = 3e-3;
+constexpr double kOriginPositionSigmaM = 1e-3;
+
 // Runs one step of the sweep's pipeline and sets `ms` to its wall time.
 template <class Step>
 decltype(auto) timed(double& ms, Step&& step) {
@@ -278,8 +282,8 @@ bool LidarInertialOdometry::initialize(int64_t start_utime) {
   x_.g = Eigen::Vector3d(0, 0, -config_.imu.gravity_mps2);
   x_.bg = standing ? mean_gyro : Eigen::Vector3d::Zero();
   StateVector sigma;
-  sigma.segment<3>(kRot).setConstant(3e-3);
-  sigma.segment<3>(kPos).setConstant(1e-3);
+  sigma.segment<3>(kRot).setConstant(kOriginRotationSigmaRad);
+  sigma.segment<3>(kPos).setConstant(kOriginPositionSigmaM);
   sigma.segment<3>(kVel).setConstant(standing ? 0.01 : 2.0);
   sigma.segment<3>(kBg).setConstant(standing ? 2e-3 : 1e-2);
   sigma.segment<3>(kBa).setConstant(0.1);
@@ -726,6 +730,15 @@ void LidarInertialOdometry::restart_keeping_anchor(const Matrix6d& information, 
     restart_local_map();
     anchor_ = std::move(anchor);
   }
+  // The sweep that could not be placed begins the new local map at the predicted pose, so
+  // in that map the pose is exact; the restart's spread stays with the anchor. Kept in P_,
+  // it had the next sweep searched too, against a map of one sweep, which the next sweep
+  // of a sparse LiDAR fits by 13-15 %: the local map restarted again and again (Mid-360
+  // without an IMU, in an experiment: at 181.4, 181.5 and 183.7 s, 7.6 m off).
+  P_.topRows<6>().setZero();
+  P_.leftCols<6>().setZero();
+  P_.block<3, 3>(kRot, kRot).diagonal().setConstant(std::pow(kOriginRotationSigmaRad, 2));
+  P_.block<3, 3>(kPos, kPos).diagonal().setConstant(std::pow(kOriginPositionSigmaM, 2));
 }
 
 void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
