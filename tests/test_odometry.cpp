@@ -246,6 +246,14 @@ struct Replayed {
   eval::TrajectoryMetrics metrics(const Recording& r) const {
     return eval::evaluate_trajectory(r.ground_truth, trajectory(), eval::EvalConfig{});
   }
+  // The estimate's position minus the truth's, in the truth's frame (the two aligned at the
+  // first estimate).
+  Eigen::Vector3d position_error(const Recording& r, const OdometryEstimate& e) const {
+    const Eigen::Isometry3d T_truth_odom =
+        *r.ground_truth.at(estimates.front().utime_us * 1e-6, 0.5);
+    return (T_truth_odom * e.T_odom_body).translation() -
+           r.ground_truth.at(e.utime_us * 1e-6, 0.5)->translation();
+  }
   // Between a_s and b_s after the start (seconds) the estimate moves as the truth does,
   // within 3 % of the distance (more than 30 m).
   void expect_moves_as_truth(const Recording& r, double a_s, double b_s) const {
@@ -396,14 +404,11 @@ TEST(Odometry, LidarOnlyAcrossAPauseTheLastSecondsVelocityIsASecondGuess) {
       }
       return true;
     });
-    const Eigen::Isometry3d T_truth_odom =
-        *r.ground_truth.at(run.estimates.front().utime_us * 1e-6, 0.5);
     Eigen::Vector3d before = Eigen::Vector3d::Zero();
     double worst = 0.0;
     for (const OdometryEstimate& e : run.estimates) {
       const double t = (e.utime_us - t0) * 1e-6;
-      const Eigen::Vector3d error = (T_truth_odom * e.T_odom_body).translation() -
-                                    r.ground_truth.at(e.utime_us * 1e-6, 0.5)->translation();
+      const Eigen::Vector3d error = run.position_error(r, e);
       if (t < pause_s - 0.2) {
         before = error;
       } else if (t > pause_s + 4.0 && t < pause_s + 14.0) {
@@ -444,13 +449,10 @@ TEST(Odometry, LidarOnlySearchAfterAPauseFindsTheHeight) {
       }
       return true;
     });
-    const Eigen::Isometry3d T_truth_odom =
-        *r.ground_truth.at(run.estimates.front().utime_us * 1e-6, 0.5);
     double before = 0.0, worst = 0.0;
     for (const OdometryEstimate& e : run.estimates) {
       const double t = (e.utime_us - t0) * 1e-6;
-      const double height_error = (T_truth_odom * e.T_odom_body).translation().z() -
-                                  r.ground_truth.at(e.utime_us * 1e-6, 0.5)->translation().z();
+      const double height_error = run.position_error(r, e).z();
       if (t < 24.0) {
         before = height_error;
       } else if (t < 40.0) {
@@ -583,16 +585,13 @@ TEST(Odometry, AfterARestartTheLocalMapIsFoundInTheOneBefore) {
       }
       return true;
     });
-    const Eigen::Isometry3d T_truth_odom =
-        *r.ground_truth.at(run.estimates.front().utime_us * 1e-6, 0.5);
     Outcome o;
     o.restarts = odometry.counters().map_restarts;
     o.reanchors = odometry.counters().reanchors;
     Eigen::Vector3d before = Eigen::Vector3d::Zero();
     for (const OdometryEstimate& e : run.estimates) {
       const double t = (e.utime_us - t0) * 1e-6;
-      const Eigen::Vector3d error = (T_truth_odom * e.T_odom_body).translation() -
-                                    r.ground_truth.at(e.utime_us * 1e-6, 0.5)->translation();
+      const Eigen::Vector3d error = run.position_error(r, e);
       if (t < pause_s) {
         before = error;
       } else if (t > pause_s + 6.0 && t < pause_s + 20.0) {
