@@ -63,10 +63,6 @@ void EgocentricGraphConfig::validate() const {
   imu.validate();
 }
 
-std::vector<StateBlock> EgocentricFactorGraph::Node::blocks() {
-  return {{pose.data(), 7, true}, {velocity.data(), 3, false}, {bias.data(), 6, false}};
-}
-
 EgocentricFactorGraph::EgocentricFactorGraph(const EgocentricGraphConfig& config)
     : config_(config) {
   config_.validate();

@@ -200,7 +200,6 @@ class EgocentricFactorGraph {
     PoseBlock pose{};
     std::array<double, 3> velocity{};
     std::array<double, 6> bias{};  // accelerometer, gyroscope
-    std::vector<StateBlock> blocks();
   };
   struct Prior {
     PoseBlock pose{};
