@@ -44,8 +44,9 @@ struct EgocentricGraphConfig {
   // IMU preintegration factors (Eq. 5). Off by default: measured on the simulated campus
   // (bench_efg, HDL-32E) they made the estimate worse, not better: session C 0.053 m
   // against 0.044 m without, session B (half of it outside the map) 0.338 m against 0.063 m.
-  // The factor agrees with the simulator's noise-free IMU (tests/test_factors.cpp); why it
-  // disagrees with the odometry's keyframes is open (docs/optimizer.md).
+  // The factor agrees with the simulator's noise-free IMU (tests/test_factors.cpp); in ILM
+  // the IMU's white noise, held only by the odometry factors, and the map's tilt against
+  // gravity pull the estimate off (docs/optimizer.md).
   bool use_imu = false;
   ImuNoiseDensities imu;
   // IMU factors only across spans this short (longer: the odometry factor alone).
