@@ -45,8 +45,9 @@ struct EgocentricGraphConfig {
   // (bench_efg, HDL-32E) they made the estimate worse, not better: session C 0.053 m
   // against 0.044 m without, session B (half of it outside the map) 0.338 m against 0.063 m.
   // The factor agrees with the simulator's noise-free IMU (tests/test_factors.cpp); in ILM
-  // the IMU's white noise, held only by the odometry factors, and the map's tilt against
-  // gravity pull the estimate off (docs/optimizer.md).
+  // the odometry factors' sigmas below, far looser than this odometry's error, let the
+  // gyroscope's noise steer the attitude, and a built map's tilt against gravity adds to it
+  // (docs/optimizer.md).
   bool use_imu = false;
   ImuNoiseDensities imu;
   // IMU factors only across spans this short (longer: the odometry factor alone).
