@@ -127,9 +127,10 @@ struct StreetRig {
     bus->drain();
     return done();
   }
-  // A keyframe of a robot's odometry, 0.1 s apart by id.
+  // A keyframe of a robot's odometry, 0.1 s apart by id, with its covariance (1 mm, 1 mrad).
   void send_keyframe(int64_t id, const Eigen::Isometry3d& T_odom_body, const PointCloud& cloud,
-                     const std::string& robot = "robot0") {
+                     const std::string& robot = "robot0",
+                     const Matrix6d& covariance = Matrix6d::Identity() * 1e-6) {
     liloc::keyframe_t msg;
     msg.header = bridge::make_header(1'700'000'100'000'000 + id * 100'000, robot, "odom");
     msg.keyframe_id = id;
@@ -138,7 +139,7 @@ struct StreetRig {
     for (double& v : msg.linear_velocity) v = 0.0;
     for (double& v : msg.gyro_bias) v = 0.0;
     for (double& v : msg.accel_bias) v = 0.0;
-    bridge::to_msg(Matrix6d::Identity(), msg.covariance);
+    bridge::to_msg(covariance, msg.covariance);
     msg.fitness = 0.05f;
     msg.degenerate = false;
     msg.cloud = bridge::to_msg(cloud);

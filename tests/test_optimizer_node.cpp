@@ -142,6 +142,15 @@ TEST(OptimizerNode, LocalizesEveryKeyframeFromTheInitializersAnswer) {
   ASSERT_FALSE(rig.status.empty());
   EXPECT_EQ(rig.status.back().mode, int8_t{liloc::status_t::MODE_RLM}) << rig.status.back().message;
   EXPECT_EQ(rig.coarse_poses, 0);
+  // A keyframe whose covariance is not one is still localized (the odometry factor takes
+  // its sigmas), and counted.
+  EXPECT_EQ(rig.optimizer->counters().keyframes_without_covariance, 0);
+  rig.send_keyframe(31, rig.T_odom_map * truth_at(20.0 + 1.02 * 31),
+                    test::seen_from(rig.world, {51.0, 0.3, 1.8}), "robot0",
+                    Matrix6d::Constant(std::nan("")));
+  ASSERT_TRUE(rig.run_until([&] { return rig.optimized(31); }));
+  EXPECT_LT(rig.error_m(31, 51.0), 0.05);
+  EXPECT_EQ(rig.optimizer->counters().keyframes_without_covariance, 1);
 }
 
 // A robot carried 20 m along the street while its odometry saw nothing (a kidnapped

@@ -216,6 +216,7 @@ Row run_case(const OpenedMap& map, const Eigen::Isometry3d& T_map_world, const S
     in.id = kf.id;
     in.utime_us = kf.utime_us;
     in.T_odom_body = kf.T_odom_body;
+    in.odometry_covariance = kf.covariance;
     in.cloud_body = kf.cloud_body;
     if (k > 0) {
       in.imu = imu_between(session.imu, session.keyframes[k - 1].utime_us, kf.utime_us);

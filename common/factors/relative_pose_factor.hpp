@@ -13,8 +13,30 @@
 #include <Eigen/Geometry>
 
 #include "math/se3.hpp"
+#include "math/so3.hpp"
 
 namespace liloc {
+
+// The Jacobian of the residual's perturbation of T_ab = T_a^-1 T_b by a's right
+// perturbation d_a (b's is the identity): d_ab = J_a d_a + d_b to first order, with
+// J_a = [ -R_ab^T   R_ab^T [p_ab]x ;  0   -R_ab^T ].
+inline Matrix6d relative_pose_jacobian_a(const Eigen::Isometry3d& T_ab) {
+  const Eigen::Matrix3d R_ba = T_ab.linear().transpose();
+  Matrix6d J_a = Matrix6d::Zero();
+  J_a.topLeftCorner<3, 3>() = -R_ba;
+  J_a.topRightCorner<3, 3>() = R_ba * so3::hat(T_ab.translation());
+  J_a.bottomRightCorner<3, 3>() = -R_ba;
+  return J_a;
+}
+
+// The covariance of T_ab from both ends' covariances (right perturbations), taken as
+// independent.
+inline Matrix6d relative_pose_covariance(const Eigen::Isometry3d& T_ab,
+                                         const Matrix6d& covariance_a,
+                                         const Matrix6d& covariance_b) {
+  const Matrix6d J_a = relative_pose_jacobian_a(T_ab);
+  return J_a * covariance_a * J_a.transpose() + covariance_b;
+}
 
 class RelativePoseFactor {
  public:

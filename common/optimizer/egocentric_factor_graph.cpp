@@ -45,6 +45,21 @@ Matrix6d scan_match_sqrt_information(double sigma_m, double sigma_rad,
   return root;
 }
 
+// Eq. 7's noise: the odometry's covariances of both keyframes carried onto their relative
+// pose (their correlation, positive through the odometry's shared local map, left out,
+// which overstates the noise), and the sigmas added: the drift that a filter's covariance
+// against its own local map does not hold.
+Matrix6d odometry_sqrt_information(const Eigen::Isometry3d& T_ab, const Matrix6d& covariance_a,
+                                   const Matrix6d& covariance_b, double sigma_m, double sigma_rad) {
+  Vector6d variance;
+  variance << Eigen::Vector3d::Constant(sigma_m * sigma_m),
+      Eigen::Vector3d::Constant(sigma_rad * sigma_rad);
+  const Matrix6d covariance =
+      relative_pose_covariance(T_ab, covariance_a, covariance_b) + Matrix6d(variance.asDiagonal());
+  // U with U^T U = covariance^-1.
+  return Matrix6d(covariance.inverse().llt().matrixU());
+}
+
 }  // namespace
 
 void EgocentricGraphConfig::validate() const {
@@ -84,6 +99,7 @@ void EgocentricFactorGraph::start(const GraphKeyframe& keyframe,
   node->id = keyframe.id;
   node->utime_us = keyframe.utime_us;
   node->T_odom_body = keyframe.T_odom_body;
+  node->odometry_covariance = keyframe.odometry_covariance;
   node->pose = pose_block(T_map_body);
   // The robot's anchor Q^b: the initial pose with its covariance.
   const Matrix6d information = covariance.inverse();
@@ -184,6 +200,7 @@ GraphEstimate EgocentricFactorGraph::add(const GraphKeyframe& keyframe) {
   node->id = keyframe.id;
   node->utime_us = keyframe.utime_us;
   node->T_odom_body = keyframe.T_odom_body;
+  node->odometry_covariance = keyframe.odometry_covariance;
   // Eq. 7: the odometry's relative pose, and the initial value it predicts.
   const Eigen::Isometry3d T_prev_cur = previous.T_odom_body.inverse() * keyframe.T_odom_body;
   const Eigen::Isometry3d T_map_prev = pose_of(previous.pose.data());
@@ -195,12 +212,16 @@ GraphEstimate EgocentricFactorGraph::add(const GraphKeyframe& keyframe) {
     node->velocity[static_cast<size_t>(k)] = velocity(k) / dt_s;
   }
   node->bias = previous.bias;
-  const double moved_m = T_prev_cur.translation().norm();
-  add_factor(RelativePoseFactor::create(
-                 T_prev_cur,
-                 sqrt_information(config_.odometry_sigma_m + config_.odometry_sigma_per_m * moved_m,
-                                  config_.odometry_sigma_rad)),
-             nullptr, {{previous.pose.data(), 7, true}, {node->pose.data(), 7, true}});
+  const double odometry_sigma_m =
+      config_.odometry_sigma_m + config_.odometry_sigma_per_m * T_prev_cur.translation().norm();
+  const Matrix6d odometry_information =
+      config_.odometry_covariance && previous.odometry_covariance && node->odometry_covariance
+          ? odometry_sqrt_information(T_prev_cur, *previous.odometry_covariance,
+                                      *node->odometry_covariance, odometry_sigma_m,
+                                      config_.odometry_sigma_rad)
+          : sqrt_information(odometry_sigma_m, config_.odometry_sigma_rad);
+  add_factor(RelativePoseFactor::create(T_prev_cur, odometry_information), nullptr,
+             {{previous.pose.data(), 7, true}, {node->pose.data(), 7, true}});
   GraphEstimate estimate;
   estimate.imu_factor = add_imu(previous, *node, keyframe.imu);
   Node& current = *node;

@@ -73,7 +73,12 @@ struct EgocentricGraphConfig {
   // anchor (the central session is the reference, paper Section IV-C).
   double prior_node_sigma_m = 0.01;
   double prior_node_sigma_rad = 0.001;
-  // The odometry factor's noise: a floor and a part proportional to the motion.
+  // The odometry factor's noise (Eq. 7): the odometry's covariances of both keyframes
+  // carried onto their relative pose (odometry_covariance; large along a corridor's axis,
+  // millimetres elsewhere), plus a floor and a part proportional to the motion for the
+  // drift that a filter's covariance against its own local map does not hold. Keyframes
+  // without a covariance get the sigmas alone.
+  bool odometry_covariance = true;
   double odometry_sigma_m = 0.02;
   double odometry_sigma_rad = 0.002;
   double odometry_sigma_per_m = 0.01;
@@ -104,6 +109,7 @@ struct EgocentricGraphConfig {
     v("scan_match_loss_scale", scan_match_loss_scale);
     v("prior_node_sigma_m", prior_node_sigma_m);
     v("prior_node_sigma_rad", prior_node_sigma_rad);
+    v("odometry_covariance", odometry_covariance);
     v("odometry_sigma_m", odometry_sigma_m);
     v("odometry_sigma_rad", odometry_sigma_rad);
     v("odometry_sigma_per_m", odometry_sigma_per_m);
@@ -140,6 +146,9 @@ struct GraphKeyframe {
   int64_t id = 0;
   int64_t utime_us = 0;
   Eigen::Isometry3d T_odom_body = Eigen::Isometry3d::Identity();
+  // The odometry's covariance of T_odom_body (right perturbation, translation m then
+  // rotation rad), if it sent one.
+  std::optional<Matrix6d> odometry_covariance;
   std::vector<ImuSample> imu;  // covering the time since the previous keyframe
   std::optional<ScanMatch> scan_match;
 };
@@ -199,6 +208,7 @@ class EgocentricFactorGraph {
     int64_t id = 0;
     int64_t utime_us = 0;
     Eigen::Isometry3d T_odom_body = Eigen::Isometry3d::Identity();
+    std::optional<Matrix6d> odometry_covariance;
     PoseBlock pose{};
     std::array<double, 3> velocity{};
     std::array<double, 6> bias{};  // accelerometer, gyroscope

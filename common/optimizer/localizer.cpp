@@ -48,6 +48,7 @@ void Localizer::start(const LocalizerKeyframe& keyframe, const Eigen::Isometry3d
   first.id = keyframe.id;
   first.utime_us = keyframe.utime_us;
   first.T_odom_body = keyframe.T_odom_body;
+  first.odometry_covariance = keyframe.odometry_covariance;
   graph_.start(first, T_map_body, covariance);
   T_map_odom_ = T_map_body * keyframe.T_odom_body.inverse();
   position_map_ = T_map_body.translation();
@@ -173,6 +174,7 @@ LocalizerOutput Localizer::add(const LocalizerKeyframe& keyframe) {
   kf.id = keyframe.id;
   kf.utime_us = keyframe.utime_us;
   kf.T_odom_body = keyframe.T_odom_body;
+  kf.odometry_covariance = keyframe.odometry_covariance;
   kf.imu = keyframe.imu;
   if (out.mode == LocalizationMode::kRelocalization) {
     const Stopwatch match_watch;

@@ -105,6 +105,7 @@ struct LocalizerKeyframe {
   int64_t id = 0;
   int64_t utime_us = 0;
   Eigen::Isometry3d T_odom_body = Eigen::Isometry3d::Identity();
+  std::optional<Matrix6d> odometry_covariance;  // of T_odom_body (GraphKeyframe's)
   PointCloud cloud_body;
   std::vector<ImuSample> imu;       // since the previous keyframe
   double odometry_fitness_m = 0.0;  // the odometry's registration (kept if the map grows)

@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <Eigen/Cholesky>
 #include <cmath>
 #include <stdexcept>
 
@@ -59,6 +60,17 @@ OptimizerNode::OptimizerNode(transport::Transport& bus, const std::string& robot
           kf.id = q->keyframe_id;
           kf.utime_us = q->utime_us;
           kf.T_odom_body = q->T_odom_body;
+          // A covariance that is not one (not finite, not positive definite) leaves the
+          // odometry factor its configured sigmas.
+          const Matrix6d covariance = bridge::covariance_from_msg(m.covariance);
+          if (covariance.allFinite() && covariance.llt().info() == Eigen::Success) {
+            kf.odometry_covariance = covariance;
+          } else if (should_log(++counters_.keyframes_without_covariance)) {
+            spdlog::warn(
+                "{}: keyframe {}: its covariance is not finite and positive definite; its "
+                "odometry factor takes the configured sigmas",
+                robot_id_, kf.id);
+          }
           kf.cloud_body = std::move(q->cloud_body);
           kf.odometry_fitness_m = std::isfinite(m.fitness) ? m.fitness : 0.0;
           on_keyframe(std::move(kf));
@@ -366,6 +378,7 @@ void OptimizerNode::publish_status(int64_t now_us) {
       {"ilm_keyframes_sent", counters_.ilm_keyframes_sent},
       {"ilm_keyframes_kept", static_cast<int64_t>(growth_.kept())},
       {"ilm_keyframes_discarded", counters_.ilm_keyframes_discarded},
+      {"keyframes_without_covariance", counters_.keyframes_without_covariance},
       {"scan_match_factors", last_ ? last_->graph.scan_match_factors : 0},
       {"prior_nodes", last_ ? last_->graph.prior_node_count : 0},
       {"window", last_ ? last_->graph.window : 0},

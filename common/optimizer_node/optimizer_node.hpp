@@ -121,6 +121,8 @@ class OptimizerNode final : public node::Node {
     int64_t map_updates = 0;              // MAP.UPDATEs sent (each in one or more messages)
     int64_t ilm_keyframes_sent = 0;       // in them
     int64_t ilm_keyframes_discarded = 0;  // kept when tracking was lost: not trusted
+    // Their covariance was not one: the odometry factor took the configured sigmas.
+    int64_t keyframes_without_covariance = 0;
     int64_t rejected_messages = 0;
   };
   const Counters& counters() const { return counters_; }
