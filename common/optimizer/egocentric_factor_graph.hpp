@@ -44,10 +44,11 @@ struct EgocentricGraphConfig {
   // IMU preintegration factors (Eq. 5). Off by default: measured on the simulated campus
   // (bench_efg, HDL-32E) they made the estimate worse, not better: session C 0.053 m
   // against 0.044 m without, session B (half of it outside the map) 0.338 m against 0.063 m.
-  // The factor agrees with the simulator's noise-free IMU (tests/test_factors.cpp); in ILM
+  // The factor agrees with the simulator's noise-free IMU (tests/test_factors.cpp). In ILM
   // the odometry factors' sigmas below, far looser than this odometry's error, let the
-  // gyroscope's noise steer the attitude, and a built map's tilt against gravity adds to it
-  // (docs/optimizer.md).
+  // gyroscope's noise steer the attitude; with them tight, what is left is the built map's
+  // attitude against gravity, which varies from place to place: against a map levelled by
+  // gravity factors (temporary code) they won, B 0.080 -> 0.052 m (docs/optimizer.md).
   bool use_imu = false;
   ImuNoiseDensities imu;
   // IMU factors only across spans this short (longer: the odometry factor alone).
