@@ -196,6 +196,19 @@ TEST(EgocentricFactorGraph, RefusesKeyframesOutOfOrder) {
   EXPECT_THROW(EgocentricFactorGraph{bad}, std::invalid_argument);
 }
 
+// A scan match in a tunnel along x at `position`, propagated to the map keyframes at
+// x = k - 1, k and k + 1.
+ScanMatch tunnel_match(int k, const Eigen::Vector3d& position) {
+  ScanMatch match;
+  match.T_map_body.translation() = position;
+  for (int i = 0; i < 3; ++i) {
+    Eigen::Isometry3d T_map_keyframe = Eigen::Isometry3d::Identity();
+    T_map_keyframe.translation() = Eigen::Vector3d(k + i - 1.0, 0.0, 0.0);
+    match.prior_nodes.push_back({100 + k + i, T_map_keyframe, 0.05});
+  }
+  return match;
+}
+
 // A corridor along x: every registration slid 1 m along the tunnel (where nothing fixes it)
 // but holds y, z and the rotation. With the registration's information, weak along x, the
 // scan-match factors hold the estimate to the map across the tunnel and leave the axis to
@@ -218,14 +231,8 @@ TEST(EgocentricFactorGraph, DegenerateScanMatchDoesNotPullAlongItsWeakAxis) {
       kf.utime_us += 1'000'000;
       const Eigen::Vector3d truth(k, 0.0, 0.0);
       kf.T_odom_body.translation() = truth;
-      ScanMatch match;
-      match.T_map_body.translation() = truth + Eigen::Vector3d(1.0, 0.0, 0.0);
+      ScanMatch match = tunnel_match(k, truth + Eigen::Vector3d(1.0, 0.0, 0.0));
       match.information = information;
-      for (int i = 0; i < 3; ++i) {
-        Eigen::Isometry3d T_map_keyframe = Eigen::Isometry3d::Identity();
-        T_map_keyframe.translation() = Eigen::Vector3d(k + i - 1.0, 0.0, 0.0);
-        match.prior_nodes.push_back({100 + k + i, T_map_keyframe, 0.05});
-      }
       kf.scan_match = match;
       last = graph.add(kf);
       EXPECT_EQ(last.scan_match_factors, 3);
@@ -264,13 +271,7 @@ TEST(EgocentricFactorGraph, SlidingOdometryGivesWayAlongItsWeakAxis) {
       kf.utime_us += 1'000'000;
       const Eigen::Vector3d truth(k, 0.0, 0.0);
       kf.T_odom_body.translation() = 1.5 * truth;
-      ScanMatch match;
-      match.T_map_body.translation() = truth;
-      for (int i = 0; i < 3; ++i) {
-        Eigen::Isometry3d T_map_keyframe = Eigen::Isometry3d::Identity();
-        T_map_keyframe.translation() = Eigen::Vector3d(k + i - 1.0, 0.0, 0.0);
-        match.prior_nodes.push_back({100 + k + i, T_map_keyframe, 0.05});
-      }
+      ScanMatch match = tunnel_match(k, truth);
       kf.scan_match = match;
       const GraphEstimate estimate = graph.add(kf);
       max_error_m = std::max(max_error_m, (estimate.T_map_body.translation() - truth).norm());
