@@ -5,6 +5,7 @@
 
 #include "bridge/lcm_conversions.hpp"
 #include "bridge/map_conversions.hpp"
+#include "bridge/odometry_conversions.hpp"
 #include "bridge/pcl_conversions.hpp"
 #include "bridge/sensor_stream.hpp"
 #include "math/so3.hpp"
@@ -69,6 +70,18 @@ TEST(LcmConversions, ScanRoundTripKeepsEveryField) {
   EXPECT_EQ(back.points[3].intensity, 30.0f);
   EXPECT_EQ(back.points[3].time_offset_s, scan.points[3].time_offset_s);
   EXPECT_EQ(back.points[3].ring, 28);
+}
+
+TEST(LcmConversions, KeyframeRoundTripKeepsGravity) {
+  Keyframe kf;
+  kf.id = 7;
+  kf.utime_us = 123456789;
+  kf.gravity_body = Eigen::Vector3d(0.01, -0.02, -1.0).normalized();
+  kf.gravity_sigma_rad = 0.0004;
+  const Keyframe back = from_msg(to_msg(kf, OdometryFrames{}), nullptr);
+  EXPECT_EQ(back.id, 7);
+  EXPECT_TRUE(back.gravity_body.isApprox(kf.gravity_body, 1e-15));
+  EXPECT_NEAR(back.gravity_sigma_rad, 0.0004, 1e-9);
 }
 
 TEST(LcmConversions, NonFinitePointsAreDroppedAndCounted) {

@@ -6,6 +6,7 @@
 #include <memory>
 #include <random>
 
+#include "factors/gravity_factor.hpp"
 #include "factors/imu_factor.hpp"
 #include "factors/imu_preintegration.hpp"
 #include "factors/marginalization.hpp"
@@ -138,6 +139,32 @@ TEST(Factors, RelativePoseAndPosePriorJacobiansMatchNumeric) {
         PosePriorFactor::create(random_pose(), random_sqrt_information()));
     expect_jacobians_match_numeric(*prior, {{a.data(), 7, true}}, 1e-5);
   }
+}
+
+// The gravity factor: its Jacobians against numeric differentiation; zero where the body
+// sees the map's down as measured; a tilt of the body by a small angle gives that angle
+// over sigma, and a turn about gravity or a move gives nothing.
+TEST(Factors, GravityFactorMeasuresTiltOnly) {
+  for (int trial = 0; trial < 10; ++trial) {
+    PoseBlock a = pose_block(random_pose());
+    const std::unique_ptr<ceres::CostFunction> gravity(GravityFactor::create(
+        random_vector(3, 1.0).normalized(), random_vector(3, 1.0).normalized(), 0.002));
+    expect_jacobians_match_numeric(*gravity, {{a.data(), 7, true}}, 1e-5);
+  }
+  const Eigen::Vector3d down_map = Eigen::Vector3d(0.01, -0.02, -1.0).normalized();
+  const Eigen::Isometry3d T = random_pose();
+  const Eigen::Vector3d down_body = T.linear().transpose() * down_map;
+  const std::unique_ptr<ceres::CostFunction> gravity(
+      GravityFactor::create(down_map, down_body, 0.002));
+  const auto residual = [&](const Eigen::Isometry3d& pose) {
+    PoseBlock x = pose_block(pose);
+    return evaluate(*gravity, {{x.data(), 7, true}});
+  };
+  EXPECT_LT(residual(T).norm(), 1e-9);
+  const Eigen::Vector3d about_gravity = 0.3 * down_body;
+  const Eigen::Vector3d across = down_body.unitOrthogonal() * 0.001;
+  EXPECT_LT(residual(se3::plus(T, (Vector6d() << 1, 2, 3, about_gravity).finished())).norm(), 1e-9);
+  EXPECT_NEAR(residual(se3::plus(T, (Vector6d() << 0, 0, 0, across).finished())).norm(), 0.5, 1e-3);
 }
 
 // At the measured relative pose the residual is zero; a perturbation xi of b's pose gives

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <iterator>
@@ -185,6 +186,41 @@ TEST(NavState, BoxminusInvertsBoxplus) {
     dx(i) = 0.01 * (i + 1) * (i % 2 == 0 ? 1 : -1);
   }
   EXPECT_TRUE(boxminus(boxplus(x, dx), x).isApprox(dx, 1e-9));
+}
+
+// The body-frame gravity and its spread: states drawn from a covariance that couples the
+// attitude with the gravity direction give the directions body_gravity predicts, with the
+// spread of its larger axis (within 5 %).
+TEST(NavState, BodyGravityCarriesTheAttitudeAndGravityCovariance) {
+  NavState x;
+  x.R = so3::exp(Eigen::Vector3d(0.2, -0.1, 2.0));
+  x.g = so3::exp(Eigen::Vector3d(0.03, 0.01, 0)) * Eigen::Vector3d(0, 0, -9.81);
+  StateMatrix L = StateMatrix::Identity() * 1e-3;
+  for (int i = kRot; i < kStateDim; ++i) {
+    for (int j = kRot; j < i; ++j) {
+      L(i, j) = 5e-4 * std::sin(1.0 + i * 7 + j * 3);
+    }
+  }
+  const StateMatrix P = L * L.transpose();
+  const BodyGravity predicted = body_gravity(x, P);
+  EXPECT_TRUE(predicted.direction.isApprox(x.R.transpose() * x.g.normalized(), 1e-12));
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal;
+  Eigen::Matrix3d spread = Eigen::Matrix3d::Zero();
+  const int n = 20000;
+  for (int k = 0; k < n; ++k) {
+    StateVector z;
+    for (int i = 0; i < kStateDim; ++i) {
+      z(i) = normal(rng);
+    }
+    const NavState y = boxplus(x, L * z);
+    const Eigen::Vector3d d = y.R.transpose() * y.g.normalized() - predicted.direction;
+    spread += d * d.transpose() / n;
+  }
+  const double sampled =
+      std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(spread).eigenvalues()(2));
+  EXPECT_NEAR(predicted.sigma_rad, sampled, 0.05 * sampled);
+  EXPECT_GT(predicted.sigma_rad, 1e-3);
 }
 
 // A simulated drive, recorded once in memory: every IMU sample and sweep in the order a

@@ -121,6 +121,8 @@ liloc::keyframe_t make_sample<liloc::keyframe_t>(const std::string& robot_id) {
   fill(m.covariance, 0.002);
   m.fitness = 0.05f;
   m.degenerate = false;
+  m.gravity_body[2] = -1.0;
+  m.gravity_sigma = 0.002f;
   m.cloud = to_msg(sample_cloud(12));
   return m;
 }

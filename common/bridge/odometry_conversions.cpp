@@ -61,6 +61,8 @@ liloc::keyframe_t to_msg(const Keyframe& kf, const OdometryFrames& frames) {
   to_msg(kf.covariance, msg.covariance);
   msg.fitness = static_cast<float>(kf.fitness_m);
   msg.degenerate = kf.degenerate;
+  put(kf.gravity_body, msg.gravity_body);
+  msg.gravity_sigma = static_cast<float>(kf.gravity_sigma_rad);
   msg.cloud = to_msg(kf.cloud_body);
   return msg;
 }
@@ -76,6 +78,8 @@ Keyframe from_msg(const liloc::keyframe_t& msg, size_t* non_finite_points) {
   kf.covariance = covariance_from_msg(msg.covariance);
   kf.fitness_m = msg.fitness;
   kf.degenerate = msg.degenerate;
+  kf.gravity_body = Eigen::Vector3d(msg.gravity_body);
+  kf.gravity_sigma_rad = msg.gravity_sigma;
   kf.cloud_body = from_msg(msg.cloud, non_finite_points);
   return kf;
 }

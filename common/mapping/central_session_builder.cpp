@@ -64,6 +64,12 @@ void CentralSessionBuilder::add(const Keyframe& keyframe) {
       ++loop_closures_;
     }
   }
+  // Without an IMU the odometry sends no gravity; a malformed one is left out the same way.
+  const double norm = keyframe.gravity_body.norm();
+  if (std::abs(norm - 1.0) < 1e-3 && std::isfinite(keyframe.gravity_sigma_rad) &&
+      keyframe.gravity_sigma_rad >= 0) {
+    gravity_.push_back({kf.id, keyframe.gravity_body / norm, keyframe.gravity_sigma_rad});
+  }
   clouds_[kf.id] = keyframe.cloud_body;
   keyframes_.push_back(kf);
 }
@@ -73,9 +79,8 @@ MapData CentralSessionBuilder::build(std::map<int64_t, PointCloud>* clouds,
   MapData map;
   map.keyframes = std::move(keyframes_);
   map.edges = std::move(edges_);
-  const PoseGraphResult graph = loop_closures_ > 0
-                                    ? optimize_pose_graph(map.keyframes, map.edges, config_.graph)
-                                    : PoseGraphResult{};
+  const PoseGraphResult graph =
+      optimize_pose_graph(map.keyframes, map.edges, config_.graph, gravity_);
   map.submaps = join_submaps(map.keyframes, submaps_, 0);
   if (report != nullptr) {
     report->keyframes = map.keyframes.size();

@@ -2,8 +2,9 @@
 // Builds the central session from one recorded drive: the odometry's keyframes become
 // the map's keyframes, consecutive ones linked by odometry edges; loop closures
 // (descriptor candidates verified by registration) add loop edges; the pose graph is
-// optimized; the keyframes are joined into submaps (Eq. 2). The paper builds its prior
-// map from odometry alone; closing loops makes a 1.5 km drive a consistent map.
+// optimized, levelled by the odometry's gravity where it ran with an IMU; the keyframes
+// are joined into submaps (Eq. 2). The paper builds its prior map from odometry alone;
+// closing loops makes a 1.5 km drive a consistent map.
 // The submap rule (Eq. 2) and the descriptor are the system's (one source each, shared
 // with the map service and the initializer), not the builder's.
 
@@ -67,6 +68,7 @@ class CentralSessionBuilder {
   LoopClosureDetector loops_;
   std::vector<MapKeyframe> keyframes_;
   std::vector<PoseGraphEdge> edges_;
+  std::vector<GravityObservation> gravity_;
   std::map<int64_t, PointCloud> clouds_;
   size_t loop_closures_ = 0;
 };

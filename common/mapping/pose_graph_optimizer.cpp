@@ -5,26 +5,79 @@
 #include <ceres/problem.h>
 #include <ceres/solver.h>
 
+#include <algorithm>
+#include <cmath>
+#include <iterator>
 #include <map>
 #include <stdexcept>
 
+#include "factors/gravity_factor.hpp"
 #include "factors/relative_pose_factor.hpp"
 #include "factors/se3_manifold.hpp"
 
 namespace liloc {
 
 void PoseGraphConfig::validate() const {
-  if (max_iterations < 1 || !(loop_loss_scale > 0) || threads < 1 || threads > 64) {
+  if (max_iterations < 1 || !(loop_loss_scale > 0) || threads < 1 || threads > 64 ||
+      !(gravity_sigma_rad > 0) || !(gravity_max_sigma_rad > 0)) {
     throw std::invalid_argument(
-        "max_iterations must be at least 1, loop_loss_scale positive, threads 1 to 64");
+        "max_iterations must be at least 1, loop_loss_scale and the gravity sigmas positive, "
+        "threads 1 to 64");
   }
 }
 
+namespace {
+
+double sigma_of(const GravityObservation& g, const PoseGraphConfig& config) {
+  return std::hypot(g.sigma_rad, config.gravity_sigma_rad);
+}
+
+// The map's down: the observations' mean in the map frame, each weighted by its
+// information.
+Eigen::Vector3d mean_down(const std::vector<MapKeyframe>& keyframes,
+                          const std::map<int64_t, size_t>& index,
+                          const std::vector<GravityObservation>& gravity,
+                          const PoseGraphConfig& config) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const GravityObservation& g : gravity) {
+    sum += keyframes[index.at(g.keyframe_id)].T_map_body.linear() * g.down_body /
+           std::pow(sigma_of(g, config), 2);
+  }
+  return sum.normalized();
+}
+
+double max_tilt(const std::vector<MapKeyframe>& keyframes, const std::map<int64_t, size_t>& index,
+                const std::vector<GravityObservation>& gravity, const Eigen::Vector3d& down_map) {
+  double worst = 0.0;
+  for (const GravityObservation& g : gravity) {
+    const Eigen::Vector3d d = keyframes[index.at(g.keyframe_id)].T_map_body.linear() * g.down_body;
+    worst = std::max(worst, std::atan2(d.cross(down_map).norm(), d.dot(down_map)));
+  }
+  return worst;
+}
+
+}  // namespace
+
 PoseGraphResult optimize_pose_graph(std::vector<MapKeyframe>& keyframes,
                                     const std::vector<PoseGraphEdge>& edges,
-                                    const PoseGraphConfig& config) {
+                                    const PoseGraphConfig& config,
+                                    const std::vector<GravityObservation>& observations) {
   PoseGraphResult result;
-  if (keyframes.size() < 2 || edges.empty()) {
+  if (keyframes.size() < 2) {
+    result.converged = true;
+    return result;
+  }
+  std::vector<GravityObservation> gravity;
+  if (config.level_by_gravity) {
+    // The first keyframe is held: it anchors the map frame, gravity does not move it.
+    std::copy_if(observations.begin(), observations.end(), std::back_inserter(gravity),
+                 [&](const GravityObservation& g) {
+                   return g.sigma_rad <= config.gravity_max_sigma_rad &&
+                          g.keyframe_id != keyframes.front().id;
+                 });
+  }
+  const bool level = !gravity.empty();
+  if (edges.empty() && !level) {
     result.converged = true;
     return result;
   }
@@ -51,6 +104,22 @@ PoseGraphResult optimize_pose_graph(std::vector<MapKeyframe>& keyframes,
     problem.AddResidualBlock(RelativePoseFactor::create(e.T_from_to, sqrt_information), loss,
                              nodes[a->second].data(), nodes[b->second].data());
   }
+  Eigen::Vector3d down_map = Eigen::Vector3d::Zero();
+  if (level) {
+    for (const GravityObservation& g : gravity) {
+      if (index.count(g.keyframe_id) == 0) {
+        throw std::invalid_argument("gravity observation names the missing keyframe " +
+                                    std::to_string(g.keyframe_id));
+      }
+    }
+    down_map = mean_down(keyframes, index, gravity, config);
+    result.max_tilt_before_rad = max_tilt(keyframes, index, gravity, down_map);
+    for (const GravityObservation& g : gravity) {
+      problem.AddResidualBlock(GravityFactor::create(down_map, g.down_body, sigma_of(g, config)),
+                               nullptr, nodes[index.at(g.keyframe_id)].data());
+      ++result.gravity_factors;
+    }
+  }
   for (PoseBlock& n : nodes) {
     if (problem.HasParameterBlock(n.data())) {
       problem.SetManifold(n.data(), manifold);
@@ -68,6 +137,9 @@ PoseGraphResult optimize_pose_graph(std::vector<MapKeyframe>& keyframes,
   ceres::Solve(options, &problem, &summary);
   for (size_t i = 0; i < keyframes.size(); ++i) {
     keyframes[i].T_map_body = pose_of(nodes[i].data());
+  }
+  if (level) {
+    result.max_tilt_after_rad = max_tilt(keyframes, index, gravity, down_map);
   }
   result.iterations = static_cast<int>(summary.iterations.size());
   result.initial_cost = summary.initial_cost;

@@ -1009,6 +1009,11 @@ void LidarInertialOdometry::finish_estimate(OdometryEstimate& est) {
     kf.covariance = est.covariance;
     kf.fitness_m = est.fitness_m;
     kf.degenerate = est.degenerate;
+    if (config_.use_imu) {
+      const BodyGravity gravity = body_gravity(x_, P_);
+      kf.gravity_body = gravity.direction;
+      kf.gravity_sigma_rad = gravity.sigma_rad;
+    }
   }
   ++counters_.scans_processed;
 }

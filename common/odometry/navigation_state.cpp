@@ -1,5 +1,9 @@
 #include "odometry/navigation_state.hpp"
 
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+
 #include "math/se3.hpp"
 #include "math/so3.hpp"
 
@@ -18,6 +22,23 @@ Eigen::Matrix<double, 3, 2> gravity_tangent_basis(const Eigen::Vector3d& g) {
 
 Eigen::Matrix<double, 3, 2> gravity_jacobian(const Eigen::Vector3d& g) {
   return -g.norm() * so3::hat(g.normalized()) * gravity_tangent_basis(g);
+}
+
+BodyGravity body_gravity(const NavState& x, const StateMatrix& P) {
+  BodyGravity out;
+  const Eigen::Vector3d u = x.g.normalized();
+  out.direction = x.R.transpose() * u;
+  // d/d(phi, dg) of R^T u, with R = R_hat Exp(phi) and u = Exp(B dg) u_hat to first order.
+  Eigen::Matrix<double, 3, 5> J;
+  J.leftCols<3>() = so3::hat(out.direction);
+  J.rightCols<2>() = x.R.transpose() * gravity_jacobian(x.g) / x.g.norm();
+  Eigen::Matrix<double, 5, 5> S;
+  S << P.block<3, 3>(kRot, kRot), P.block<3, 2>(kRot, kGrav), P.block<2, 3>(kGrav, kRot),
+      P.block<2, 2>(kGrav, kGrav);
+  const Eigen::Matrix3d C = J * S * J.transpose();
+  out.sigma_rad =
+      std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(C).eigenvalues()(2)));
+  return out;
 }
 
 NavState boxplus(const NavState& x, const StateVector& dx) {

@@ -38,6 +38,15 @@ Eigen::Matrix<double, 3, 2> gravity_tangent_basis(const Eigen::Vector3d& g);
 // d g / d dg at dg = 0: -|g| [u]x B(u).
 Eigen::Matrix<double, 3, 2> gravity_jacobian(const Eigen::Vector3d& g);
 
+// Gravity's direction in the body frame, R^T g / |g|, with the 1-sigma angle of its larger
+// axis (rad) from the covariance P of the attitude and the gravity direction (their
+// correlation included: what the filter knows is the tilt of the body against gravity).
+struct BodyGravity {
+  Eigen::Vector3d direction = Eigen::Vector3d::Zero();
+  double sigma_rad = 0.0;
+};
+BodyGravity body_gravity(const NavState& x, const StateMatrix& P);
+
 NavState boxplus(const NavState& x, const StateVector& dx);
 // The inverse of boxplus: boxplus(x, boxminus(y, x)) = y.
 StateVector boxminus(const NavState& y, const NavState& x);

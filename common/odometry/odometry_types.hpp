@@ -33,6 +33,10 @@ struct Keyframe {
   Matrix6d covariance = Matrix6d::Identity();  // right perturbation (translation, rotation)
   double fitness_m = 0.0;
   bool degenerate = false;
+  // Gravity's direction in the body frame (unit) and its 1-sigma angle, from the filter;
+  // zero without an IMU. The map builder levels the map with it (GravityFactor).
+  Eigen::Vector3d gravity_body = Eigen::Vector3d::Zero();
+  double gravity_sigma_rad = 0.0;
   PointCloud cloud_body;  // deskewed to utime_us, downsampled
 };
 

@@ -69,8 +69,10 @@ void EgocentricGraphConfig::validate() const {
   if (!(scan_match_sigma_m > 0) || !(scan_match_sigma_rad > 0) || !(fitness_reference_m > 0) ||
       !(scan_match_loss_scale > 0) || !(prior_node_sigma_m > 0) || !(prior_node_sigma_rad > 0) ||
       !(odometry_sigma_m > 0) || !(odometry_sigma_rad > 0) || !(odometry_sigma_per_m >= 0) ||
-      !(max_imu_span_s > 0) || !(max_imu_gap_s > 0) || !(initial_accel_bias_sigma_mps2 > 0) ||
-      !(initial_gyro_bias_sigma_rps > 0) || !(map_tilt_sigma_rad > 0) || max_iterations < 1) {
+      !(odometry_floor_sigma_m > 0) || !(odometry_floor_sigma_rad > 0) ||
+      !(odometry_floor_sigma_per_m >= 0) || !(max_imu_span_s > 0) || !(max_imu_gap_s > 0) ||
+      !(initial_accel_bias_sigma_mps2 > 0) || !(initial_gyro_bias_sigma_rps > 0) ||
+      !(map_tilt_sigma_rad > 0) || max_iterations < 1) {
     throw std::invalid_argument(
         "the optimizer's sigmas, fitness_reference_m, scan_match_loss_scale and the IMU spans "
         "must be positive, max_iterations at least 1");
@@ -106,19 +108,22 @@ void EgocentricFactorGraph::start(const GraphKeyframe& keyframe,
   add_factor(PosePriorFactor::create(T_map_body, information.llt().matrixU()), nullptr,
              {{node->pose.data(), 7, true}});
   if (config_.use_imu) {
-    // The biases start at zero, within their turn-on spread.
-    Eigen::Matrix<double, 6, 1> inverse_sigma;
-    inverse_sigma << Eigen::Vector3d::Constant(1.0 / config_.initial_accel_bias_sigma_mps2),
-        Eigen::Vector3d::Constant(1.0 / config_.initial_gyro_bias_sigma_rps);
-    add_factor(new ceres::NormalPrior(inverse_sigma.asDiagonal().toDenseMatrix(),
-                                      Eigen::VectorXd::Zero(6)),
-               nullptr, {{node->bias.data(), 6, false}});
     map_tilt_ = {0.0, 0.0};
     add_factor(new ceres::NormalPrior(Eigen::Matrix2d::Identity() / config_.map_tilt_sigma_rad,
                                       Eigen::VectorXd::Zero(2)),
                nullptr, {{map_tilt_.data(), 2, false}});
   }
   nodes_.push_back(std::move(node));
+}
+
+void EgocentricFactorGraph::add_bias_prior(Node& node) {
+  Eigen::Matrix<double, 6, 1> inverse_sigma;
+  inverse_sigma << Eigen::Vector3d::Constant(1.0 / config_.initial_accel_bias_sigma_mps2),
+      Eigen::Vector3d::Constant(1.0 / config_.initial_gyro_bias_sigma_rps);
+  add_factor(new ceres::NormalPrior(inverse_sigma.asDiagonal().toDenseMatrix(),
+                                    Eigen::Map<const Eigen::VectorXd>(node.bias.data(), 6)),
+             nullptr, {{node.bias.data(), 6, false}});
+  node.bias_held = true;
 }
 
 bool EgocentricFactorGraph::add_imu(Node& from, Node& to, const std::vector<ImuSample>& imu) {
@@ -135,6 +140,10 @@ bool EgocentricFactorGraph::add_imu(Node& from, Node& to, const std::vector<ImuS
   if (preintegration.integrate(imu, from.utime_us, to.utime_us) > config_.max_imu_gap_s) {
     return false;
   }
+  if (!from.bias_held) {
+    add_bias_prior(from);
+  }
+  to.bias_held = true;
   add_factor(ImuFactor::create(preintegration, config_.imu.gravity_mps2), nullptr,
              {{from.pose.data(), 7, true},
               {from.velocity.data(), 3, false},
@@ -212,18 +221,22 @@ GraphEstimate EgocentricFactorGraph::add(const GraphKeyframe& keyframe) {
     node->velocity[static_cast<size_t>(k)] = velocity(k) / dt_s;
   }
   node->bias = previous.bias;
-  const double odometry_sigma_m =
-      config_.odometry_sigma_m + config_.odometry_sigma_per_m * T_prev_cur.translation().norm();
-  const Matrix6d odometry_information =
-      config_.odometry_covariance && previous.odometry_covariance && node->odometry_covariance
-          ? odometry_sqrt_information(T_prev_cur, *previous.odometry_covariance,
-                                      *node->odometry_covariance, odometry_sigma_m,
-                                      config_.odometry_sigma_rad)
-          : sqrt_information(odometry_sigma_m, config_.odometry_sigma_rad);
-  add_factor(RelativePoseFactor::create(T_prev_cur, odometry_information), nullptr,
-             {{previous.pose.data(), 7, true}, {node->pose.data(), 7, true}});
   GraphEstimate estimate;
   estimate.imu_factor = add_imu(previous, *node, keyframe.imu);
+  const double step_m = T_prev_cur.translation().norm();
+  const double sigma_m = config_.odometry_sigma_m + config_.odometry_sigma_per_m * step_m;
+  Matrix6d odometry_information = sqrt_information(sigma_m, config_.odometry_sigma_rad);
+  if (config_.odometry_covariance && previous.odometry_covariance && node->odometry_covariance) {
+    // The floor is small where an IMU factor spans the step (EgocentricGraphConfig).
+    const bool imu = estimate.imu_factor;
+    odometry_information = odometry_sqrt_information(
+        T_prev_cur, *previous.odometry_covariance, *node->odometry_covariance,
+        imu ? config_.odometry_floor_sigma_m + config_.odometry_floor_sigma_per_m * step_m
+            : sigma_m,
+        imu ? config_.odometry_floor_sigma_rad : config_.odometry_sigma_rad);
+  }
+  add_factor(RelativePoseFactor::create(T_prev_cur, odometry_information), nullptr,
+             {{previous.pose.data(), 7, true}, {node->pose.data(), 7, true}});
   Node& current = *node;
   nodes_.push_back(std::move(node));
   if (keyframe.scan_match && mode_ == LocalizationMode::kRelocalization) {

@@ -41,15 +41,13 @@ struct EgocentricGraphConfig {
   int window_rlm = 5;   // N_m^r keyframes kept in RLM
   int window_ilm = 10;  // N_m^l keyframes kept in ILM
   int prior_nodes = 3;  // N_d nearest prior nodes a scan match is propagated to
-  // IMU preintegration factors (Eq. 5). Off by default: measured on the simulated campus
-  // (bench_efg, HDL-32E) they made the estimate worse, not better: session C 0.053 m
-  // against 0.044 m without, session B (half of it outside the map) 0.338 m against 0.063 m.
-  // The factor agrees with the simulator's noise-free IMU (tests/test_factors.cpp). In ILM
-  // the odometry factors' sigmas below, far looser than this odometry's error, let the
-  // gyroscope's noise steer the attitude; with them tight, what is left is the built map's
-  // attitude against gravity, which varies from place to place: against a map levelled by
-  // gravity factors (temporary code) they won, B 0.080 -> 0.052 m (docs/optimizer.md).
-  bool use_imu = false;
+  // IMU preintegration factors (Eq. 5); keyframes without IMU samples (a LiDAR-only
+  // odometry) get the odometry factor alone. They help against a map levelled by gravity
+  // (docs/map_server.md) and with the odometry factors' small floor below: HDL-32E B 0.078
+  // -> 0.049 m, VLP-16 B 0.073 -> 0.043 m, C and D within 1 mm (bench_efg). Against a map
+  // whose attitude wanders from place to place they lost (B 0.058 -> 0.100 m): the map
+  // frame has one tilt against gravity in this graph.
+  bool use_imu = true;
   ImuNoiseDensities imu;
   // IMU factors only across spans this short (longer: the odometry factor alone).
   double max_imu_span_s = 3.0;
@@ -77,9 +75,16 @@ struct EgocentricGraphConfig {
   // The odometry factor's noise (Eq. 7): the odometry's covariances of both keyframes
   // carried onto their relative pose (odometry_covariance; large along a corridor's axis,
   // millimetres elsewhere), plus a floor and a part proportional to the motion for the
-  // drift that a filter's covariance against its own local map does not hold. Keyframes
-  // without a covariance get the sigmas alone.
+  // drift that a filter's covariance against its own local map does not hold. Where an
+  // IMU factor spans the same step the floor is small: a looser one (2 cm + 1 %, 2 mrad)
+  // let the IMU's noise steer the estimate in ILM, HDL-32E B 0.273 m against 0.049 m, and
+  // 0.143 m with only the rotation's floor small (bench_efg). Elsewhere, and as the whole
+  // noise of keyframes without a covariance, the conservative sigmas: an odometry that
+  // claims millimetres and drifts 2 % is then still held to the map by the scan matches.
   bool odometry_covariance = true;
+  double odometry_floor_sigma_m = 0.001;
+  double odometry_floor_sigma_rad = 0.0002;
+  double odometry_floor_sigma_per_m = 0.001;
   double odometry_sigma_m = 0.02;
   double odometry_sigma_rad = 0.002;
   double odometry_sigma_per_m = 0.01;
@@ -111,6 +116,9 @@ struct EgocentricGraphConfig {
     v("prior_node_sigma_m", prior_node_sigma_m);
     v("prior_node_sigma_rad", prior_node_sigma_rad);
     v("odometry_covariance", odometry_covariance);
+    v("odometry_floor_sigma_m", odometry_floor_sigma_m);
+    v("odometry_floor_sigma_rad", odometry_floor_sigma_rad);
+    v("odometry_floor_sigma_per_m", odometry_floor_sigma_per_m);
     v("odometry_sigma_m", odometry_sigma_m);
     v("odometry_sigma_rad", odometry_sigma_rad);
     v("odometry_sigma_per_m", odometry_sigma_per_m);
@@ -213,6 +221,8 @@ class EgocentricFactorGraph {
     PoseBlock pose{};
     std::array<double, 3> velocity{};
     std::array<double, 6> bias{};  // accelerometer, gyroscope
+    // A factor holds the biases: their prior, or an IMU factor into this node.
+    bool bias_held = false;
   };
   struct Prior {
     PoseBlock pose{};
@@ -222,6 +232,11 @@ class EgocentricFactorGraph {
   void add_factor(ceres::CostFunction* cost, std::shared_ptr<ceres::LossFunction> loss,
                   std::vector<StateBlock> blocks);
   int add_scan_match(Node& node, const ScanMatch& match);
+  // The biases within their turn-on spread about their current value.
+  void add_bias_prior(Node& node);
+  // Eq. 5 between consecutive nodes, if the samples span them; a chain of IMU factors that
+  // starts at `from` gives its biases their prior (one factor alone leaves the
+  // accelerometer bias and the velocity trading off: a rank-deficient covariance).
   bool add_imu(Node& from, Node& to, const std::vector<ImuSample>& imu);
   // JFGO over the window; the newest node's covariance into `estimate` if asked for.
   double solve(Node& newest, GraphEstimate& estimate);

@@ -61,6 +61,7 @@ DriveResult run_odometry(const SystemConfig& config, const std::string& log_path
                        reference->at(keyframe.utime_us * 1e-6, kReferencePoseMaxGapS)) {
           Keyframe posed = keyframe;
           posed.T_odom_body = *T_world_body;
+          posed.gravity_body.setZero();  // reference poses are kept as they are, not levelled
           builder.add(posed);
         } else {
           drive.without_reference.push_back(keyframe.utime_us);
@@ -134,6 +135,11 @@ void print_map_summary(const std::string& directory, const MapData& map,
               static_cast<long long>(map.version));
   std::printf("keyframes       %zu in %zu submaps\n", report.keyframes, report.submaps);
   std::printf("loop closures   %zu\n", report.loop_closures);
+  if (report.graph.gravity_factors > 0) {
+    std::printf("levelled        by gravity at %d keyframes, largest tilt %.1f -> %.1f mrad\n",
+                report.graph.gravity_factors, 1e3 * report.graph.max_tilt_before_rad,
+                1e3 * report.graph.max_tilt_after_rad);
+  }
 }
 
 int build_map(int argc, const char* const* argv) {
@@ -219,6 +225,8 @@ int build_map(int argc, const char* const* argv) {
           .integer(static_cast<int64_t>(report.submaps))
           .key("loop_closures")
           .integer(static_cast<int64_t>(report.loop_closures))
+          .key("gravity_factors")
+          .integer(report.graph.gravity_factors)
           .key("odometry_ate_m")
           .number(ate_odometry)
           .key("map_ate_m")
