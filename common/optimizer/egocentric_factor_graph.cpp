@@ -70,9 +70,9 @@ void EgocentricGraphConfig::validate() const {
       !(scan_match_loss_scale > 0) || !(prior_node_sigma_m > 0) || !(prior_node_sigma_rad > 0) ||
       !(odometry_sigma_m > 0) || !(odometry_sigma_rad > 0) || !(odometry_sigma_per_m >= 0) ||
       !(odometry_floor_sigma_m > 0) || !(odometry_floor_sigma_rad > 0) ||
-      !(odometry_floor_sigma_per_m >= 0) || !(max_imu_span_s > 0) || !(max_imu_gap_s > 0) ||
-      !(initial_accel_bias_sigma_mps2 > 0) || !(initial_gyro_bias_sigma_rps > 0) ||
-      !(map_tilt_sigma_rad > 0) || max_iterations < 1) {
+      !(odometry_floor_sigma_per_m >= 0) || !(odometry_loss_scale >= 0) || !(max_imu_span_s > 0) ||
+      !(max_imu_gap_s > 0) || !(initial_accel_bias_sigma_mps2 > 0) ||
+      !(initial_gyro_bias_sigma_rps > 0) || !(map_tilt_sigma_rad > 0) || max_iterations < 1) {
     throw std::invalid_argument(
         "the optimizer's sigmas, fitness_reference_m, scan_match_loss_scale and the IMU spans "
         "must be positive, max_iterations at least 1");
@@ -235,7 +235,10 @@ GraphEstimate EgocentricFactorGraph::add(const GraphKeyframe& keyframe) {
             : sigma_m,
         imu ? config_.odometry_floor_sigma_rad : config_.odometry_sigma_rad);
   }
-  add_factor(RelativePoseFactor::create(T_prev_cur, odometry_information), nullptr,
+  add_factor(RelativePoseFactor::create(T_prev_cur, odometry_information),
+             config_.odometry_loss_scale > 0
+                 ? std::make_shared<ceres::CauchyLoss>(config_.odometry_loss_scale)
+                 : nullptr,
              {{previous.pose.data(), 7, true}, {node->pose.data(), 7, true}});
   Node& current = *node;
   nodes_.push_back(std::move(node));
