@@ -195,13 +195,19 @@ TEST(EgocentricFactorGraph, ModesChangeTheWindowAndCarryTheMarginalPrior) {
   EXPECT_GT(run(drive, growing, inside).max_window, 30);
 }
 
+// The odometry's pose jumps by 1.2 m and 4.6 degrees at 30 s.
+Drive jumping_drive() {
+  Drive drive;
+  drive.jump_at_s = 30.0;
+  drive.jump = se3::make(so3::exp(Eigen::Vector3d(0.0, 0.0, 0.08)), Eigen::Vector3d(0.8, 0.9, 0.0));
+  return drive;
+}
+
 // The odometry jumps (a restart, a bad registration) by 1.2 m and 4.6 degrees between two
 // keyframes inside the map, under the correction gate (1.5 m): the scan matches outvote it
 // at once. (With the odometry trusted to 1 mm the estimate follows it: 49 m.)
 TEST(EgocentricFactorGraph, AnOdometryJumpIsOutvotedByTheMap) {
-  Drive drive;
-  drive.jump_at_s = 30.0;
-  drive.jump = se3::make(so3::exp(Eigen::Vector3d(0.0, 0.0, 0.08)), Eigen::Vector3d(0.8, 0.9, 0.0));
+  Drive drive = jumping_drive();
   const RunResult r = run(drive, EgocentricGraphConfig{}, [](double) { return true; });
   EXPECT_LT(r.max_error_m, 0.08);
   EXPECT_LT(r.last_error_m, 0.05);
@@ -211,9 +217,7 @@ TEST(EgocentricFactorGraph, AnOdometryJumpIsOutvotedByTheMap) {
 // factors: the odometry factor's floor is small there, and only its robust loss lets the
 // map and the IMU outvote it (seen: 0.072 m; without the loss 1.26 m at the jump).
 TEST(EgocentricFactorGraph, AnOdometryThatClaimsMillimetresAndJumpsIsOutvoted) {
-  Drive drive;
-  drive.jump_at_s = 30.0;
-  drive.jump = se3::make(so3::exp(Eigen::Vector3d(0.0, 0.0, 0.08)), Eigen::Vector3d(0.8, 0.9, 0.0));
+  Drive drive = jumping_drive();
   drive.covariance = Matrix6d::Identity() * 1e-6;
   const RunResult r = run(drive, EgocentricGraphConfig{}, [](double) { return true; });
   EXPECT_TRUE(r.last.imu_factor);

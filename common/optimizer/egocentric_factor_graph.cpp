@@ -75,7 +75,7 @@ void EgocentricGraphConfig::validate() const {
       !(initial_gyro_bias_sigma_rps > 0) || !(map_tilt_sigma_rad > 0) || max_iterations < 1) {
     throw std::invalid_argument(
         "the optimizer's sigmas, fitness_reference_m, scan_match_loss_scale and the IMU spans "
-        "must be positive, max_iterations at least 1");
+        "must be positive, odometry_loss_scale not negative, max_iterations at least 1");
   }
   imu.validate();
 }
