@@ -32,6 +32,17 @@ double sigma_of(const GravityObservation& g, const PoseGraphConfig& config) {
   return std::hypot(g.sigma_rad, config.gravity_sigma_rad);
 }
 
+// The down direction a gravity observation gives in the map frame, at its keyframe's pose.
+Eigen::Vector3d down_in_map(const std::vector<MapKeyframe>& keyframes,
+                            const std::map<int64_t, size_t>& index, const GravityObservation& g) {
+  const auto it = index.find(g.keyframe_id);
+  if (it == index.end()) {
+    throw std::invalid_argument("gravity observation names the missing keyframe " +
+                                std::to_string(g.keyframe_id));
+  }
+  return keyframes[it->second].T_map_body.linear() * g.down_body;
+}
+
 // The map's down: the observations' mean in the map frame, each weighted by its
 // information.
 Eigen::Vector3d mean_down(const std::vector<MapKeyframe>& keyframes,
@@ -40,8 +51,7 @@ Eigen::Vector3d mean_down(const std::vector<MapKeyframe>& keyframes,
                           const PoseGraphConfig& config) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (const GravityObservation& g : gravity) {
-    sum += keyframes[index.at(g.keyframe_id)].T_map_body.linear() * g.down_body /
-           std::pow(sigma_of(g, config), 2);
+    sum += down_in_map(keyframes, index, g) / std::pow(sigma_of(g, config), 2);
   }
   return sum.normalized();
 }
@@ -50,7 +60,7 @@ double max_tilt(const std::vector<MapKeyframe>& keyframes, const std::map<int64_
                 const std::vector<GravityObservation>& gravity, const Eigen::Vector3d& down_map) {
   double worst = 0.0;
   for (const GravityObservation& g : gravity) {
-    const Eigen::Vector3d d = keyframes[index.at(g.keyframe_id)].T_map_body.linear() * g.down_body;
+    const Eigen::Vector3d d = down_in_map(keyframes, index, g);
     worst = std::max(worst, std::atan2(d.cross(down_map).norm(), d.dot(down_map)));
   }
   return worst;
@@ -106,19 +116,13 @@ PoseGraphResult optimize_pose_graph(std::vector<MapKeyframe>& keyframes,
   }
   Eigen::Vector3d down_map = Eigen::Vector3d::Zero();
   if (level) {
-    for (const GravityObservation& g : gravity) {
-      if (index.count(g.keyframe_id) == 0) {
-        throw std::invalid_argument("gravity observation names the missing keyframe " +
-                                    std::to_string(g.keyframe_id));
-      }
-    }
-    down_map = mean_down(keyframes, index, gravity, config);
+    down_map = mean_down(keyframes, index, gravity, config);  // throws on a missing keyframe
     result.max_tilt_before_rad = max_tilt(keyframes, index, gravity, down_map);
     for (const GravityObservation& g : gravity) {
       problem.AddResidualBlock(GravityFactor::create(down_map, g.down_body, sigma_of(g, config)),
                                nullptr, nodes[index.at(g.keyframe_id)].data());
-      ++result.gravity_factors;
     }
+    result.gravity_factors = static_cast<int>(gravity.size());
   }
   for (PoseBlock& n : nodes) {
     if (problem.HasParameterBlock(n.data())) {
