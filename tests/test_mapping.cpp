@@ -134,6 +134,12 @@ TEST(PoseGraph, GravityLevelsAPitchDrift) {
   // (seen: 17.8 -> 4.3 mrad); beyond it the 29 mrad of drift are gone (seen: 0.7 mrad).
   EXPECT_LT(r.max_tilt_after_rad, 0.3 * r.max_tilt_before_rad);
   EXPECT_LT(pitch_between(5, n - 1), 2e-3);
+  // The frame is turned so that the drive's down is -z (the drive is level): its mean down
+  // was 11 mrad off the anchor's, whose frame the map had.
+  EXPECT_NEAR(r.frame_turn_rad, 11e-3, 2e-3);
+  for (int i = 5; i < n; ++i) {
+    EXPECT_LT(so3::tilt(keyframes[i].T_map_body.linear()), 2e-3) << "keyframe " << i;
+  }
   PoseGraphConfig off;
   off.level_by_gravity = false;
   std::vector<MapKeyframe> untouched = keyframes;

@@ -68,6 +68,14 @@ TEST(So3, RollPitchYawComposeAsZyx) {
   EXPECT_TRUE(so3::to_rpy(R).isApprox(Eigen::Vector3d(0, 0, kPi / 2), 1e-12));
 }
 
+// Tilt ignores yaw: a pitch of 0.2 rad under any heading tilts by 0.2; upside down is pi.
+TEST(So3, TiltIsTheAngleOffUpWhateverTheHeading) {
+  EXPECT_NEAR(so3::tilt(so3::from_rpy(Eigen::Vector3d(0, 0.2, 2.5))), 0.2, 1e-12);
+  EXPECT_NEAR(so3::tilt(so3::exp(Eigen::Vector3d(0.03, -0.04, 0))), 0.05, 1e-12);
+  EXPECT_NEAR(so3::tilt(so3::exp(Eigen::Vector3d(kPi, 0, 0))), kPi, 1e-7);
+  EXPECT_EQ(so3::tilt(Eigen::Matrix3d::Identity()), 0.0);
+}
+
 TEST(So3, NormalizeRepairsDrift) {
   Eigen::Matrix3d R = so3::exp(Eigen::Vector3d(0.2, 0.1, -0.4));
   R(0, 0) += 1e-4;

@@ -334,6 +334,8 @@ struct PriorMap {
       keyframes.push_back({kf.utime_us * 1e-6, kf.T_map_body});
     }
     T_map_world = eval::fit_rigid_alignment(in_world, in_map);
+    spdlog::info("map {}: its z {:.2f} deg from the truth's up", directory,
+                 so3::tilt(T_map_world.linear()) * so3::kRadToDeg);
     mapped_area = Trajectory(std::move(keyframes));
   }
   OpenedMap opened;

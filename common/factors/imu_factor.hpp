@@ -9,9 +9,10 @@
 // whitened by the preintegration's covariance and the random walk's over dt. Blocks: pose_i
 // (Se3Manifold), v_i [m/s, map frame], b_i [accelerometer; gyroscope], pose_j, v_j, b_j,
 // and the map frame's tilt (roll, pitch [rad]): g = Rx(roll) Ry(pitch) (0, 0, -|g|). A map
-// is levelled by the odometry that built it, to within its own gravity estimate (a degree
-// or so, seen on the simulated campus); assuming its z axis to be exactly up pulled the
-// poses' roll and pitch by that much, so the tilt is estimated with them.
+// built from a drive with an IMU has its z axis up (mapping/pose_graph_optimizer.hpp); one
+// built without (LiDAR-only, imported poses, another tool) may be tilted by a degree or so,
+// and assuming its z axis to be exactly up pulled the poses' roll and pitch by that much,
+// so the tilt is estimated with them.
 
 #include <ceres/autodiff_cost_function.h>
 #include <ceres/rotation.h>

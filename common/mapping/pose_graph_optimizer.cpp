@@ -144,6 +144,13 @@ PoseGraphResult optimize_pose_graph(std::vector<MapKeyframe>& keyframes,
   }
   if (level) {
     result.max_tilt_after_rad = max_tilt(keyframes, index, gravity, down_map);
+    const Eigen::Quaterniond turn =
+        Eigen::Quaterniond::FromTwoVectors(down_map, -Eigen::Vector3d::UnitZ());
+    result.frame_turn_rad = turn.angularDistance(Eigen::Quaterniond::Identity());
+    const Eigen::Isometry3d T_level_map(turn);
+    for (MapKeyframe& kf : keyframes) {
+      kf.T_map_body = T_level_map * kf.T_map_body;
+    }
   }
   result.iterations = static_cast<int>(summary.iterations.size());
   result.initial_cost = summary.initial_cost;

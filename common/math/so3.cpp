@@ -77,6 +77,8 @@ Eigen::Vector3d to_rpy(const Eigen::Matrix3d& R) {
 
 double yaw(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
 
+double tilt(const Eigen::Matrix3d& R) { return std::acos(std::clamp(R(2, 2), -1.0, 1.0)); }
+
 double wrap_angle(double angle_rad) { return std::remainder(angle_rad, 2.0 * M_PI); }
 
 Eigen::Matrix3d normalize(const Eigen::Matrix3d& R) {

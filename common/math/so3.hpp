@@ -34,6 +34,9 @@ Eigen::Vector3d to_rpy(const Eigen::Matrix3d& R);
 // Heading of R about the z axis (the yaw of from_rpy), in (-pi, pi].
 double yaw(const Eigen::Matrix3d& R);
 
+// Angle between R's z axis and the z axis (rad): how far R tilts what is up.
+double tilt(const Eigen::Matrix3d& R);
+
 // An angle wrapped to [-pi, pi].
 double wrap_angle(double angle_rad);
 

@@ -13,6 +13,7 @@
 #include "eval/json_writer.hpp"
 #include "eval/trajectory_metrics.hpp"
 #include "map/keyframe_descriptors.hpp"
+#include "math/so3.hpp"
 #include "odometry_node/log_drive.hpp"
 #include "storage/map_store.hpp"
 #include "storage/submap_cloud_files.hpp"
@@ -136,9 +137,11 @@ void print_map_summary(const std::string& directory, const MapData& map,
   std::printf("keyframes       %zu in %zu submaps\n", report.keyframes, report.submaps);
   std::printf("loop closures   %zu\n", report.loop_closures);
   if (report.graph.gravity_factors > 0) {
-    std::printf("levelled        by gravity at %d keyframes, largest tilt %.1f -> %.1f mrad\n",
-                report.graph.gravity_factors, 1e3 * report.graph.max_tilt_before_rad,
-                1e3 * report.graph.max_tilt_after_rad);
+    std::printf(
+        "levelled        by gravity at %d keyframes, largest tilt %.1f -> %.1f mrad; the frame "
+        "turned %.2f deg to put z up\n",
+        report.graph.gravity_factors, 1e3 * report.graph.max_tilt_before_rad,
+        1e3 * report.graph.max_tilt_after_rad, report.graph.frame_turn_rad * so3::kRadToDeg);
   }
 }
 
@@ -202,17 +205,21 @@ int build_map(int argc, const char* const* argv) {
 
     std::printf("sweeps          %lld (odometry %.1f s, total %.1f s)\n",
                 static_cast<long long>(drive.scans), odometry_s, total_s);
-    double ate_odometry = -1.0, ate_map = -1.0;
+    double ate_odometry = -1.0, ate_map = -1.0, up_error_deg = -1.0;
     if (ground_truth) {
       eval::EvalConfig eval_config;
       ate_odometry = eval::evaluate_trajectory(
                          *ground_truth, keyframe_trajectory(drive.odometry_keyframes), eval_config)
                          .ate_position_rmse_m;
-      ate_map =
-          eval::evaluate_trajectory(*ground_truth, keyframe_trajectory(map.keyframes), eval_config)
-              .ate_position_rmse_m;
-      std::printf("ATE keyframes   %.3f m odometry only, %.3f m map (SE(3)-aligned)\n",
-                  ate_odometry, ate_map);
+      const eval::TrajectoryMetrics fit =
+          eval::evaluate_trajectory(*ground_truth, keyframe_trajectory(map.keyframes), eval_config);
+      ate_map = fit.ate_position_rmse_m;
+      // The truth's z is up: how far the map's z is from it, by the alignment's rotation.
+      up_error_deg = so3::tilt(fit.T_gt_est.linear()) * so3::kRadToDeg;
+      std::printf(
+          "ATE keyframes   %.3f m odometry only, %.3f m map (SE(3)-aligned); the map's z "
+          "%.2f deg from the truth's up\n",
+          ate_odometry, ate_map, up_error_deg);
     }
     if (!json_path.empty()) {
       eval::JsonWriter json;
@@ -231,6 +238,8 @@ int build_map(int argc, const char* const* argv) {
           .number(ate_odometry)
           .key("map_ate_m")
           .number(ate_map)
+          .key("up_error_deg")
+          .number(up_error_deg)
           .key("build_s")
           .number(total_s)
           .end_object();
