@@ -256,6 +256,64 @@ TEST(PoseInitializer, CoarseToFineSearchesByCorrelationWhenTheDescriptorsMislead
   EXPECT_LT(error_deg(r, truth), 0.5);
 }
 
+// Coarse-to-fine's two rounds (the map keyframes' starts, then the correlative search,
+// which runs when the first answer has fewer than correlative_below_inlier_ratio inliers):
+// the answer with more inliers wins; distinct places close in inliers give no answer; a
+// round that needs submaps makes the whole wait. The first case is a Mid-360 start in
+// session C: a keyframe's start 0.64 m off (0.775), the search's 3 cm off (0.84).
+TEST(PoseInitializer, CoarseToFineKeepsTheRoundWithMoreInliers) {
+  const auto round = [](double x_m, double inliers) {
+    InitCandidate c;
+    c.verified = true;
+    c.T_map_body.translation().x() = x_m;
+    c.inlier_ratio = inliers;
+    InitResult r;
+    r.status = InitResult::Status::kLocalized;
+    r.best = c;
+    r.candidates = {c};
+    r.registration_ms = 1.0;
+    return r;
+  };
+  const InitializerConfig config;
+  const InitResult near_miss = round(0.64, 0.775);
+  const InitResult searched = round(0.03, 0.84);
+  InitResult r = merge_coarse_rounds(near_miss, searched, config);
+  ASSERT_TRUE(r.localized()) << r.reason;
+  EXPECT_DOUBLE_EQ(r.best->T_map_body.translation().x(), 0.03);
+  EXPECT_NE(r.reason.find("correlative"), std::string::npos) << r.reason;
+  ASSERT_EQ(r.candidates.size(), 2u);
+  EXPECT_EQ(r.candidates[1].rejected, "fewer inliers than the answer");
+  EXPECT_DOUBLE_EQ(r.registration_ms, 2.0);
+
+  r = merge_coarse_rounds(searched, near_miss, config);  // the first round's is better
+  ASSERT_TRUE(r.localized());
+  EXPECT_DOUBLE_EQ(r.best->T_map_body.translation().x(), 0.03);
+  EXPECT_EQ(r.candidates[1].rejected, "fewer inliers than the answer");
+
+  // 8 m apart along a street, 0.775 against 0.84 (above 0.85 of it): neither.
+  r = merge_coarse_rounds(round(8.0, 0.775), searched, config);
+  EXPECT_FALSE(r.localized());
+  EXPECT_NE(r.reason.find("ambiguous"), std::string::npos) << r.reason;
+  EXPECT_FALSE(r.best.has_value());
+  // ... unless the search's clearly wins.
+  EXPECT_TRUE(merge_coarse_rounds(round(8.0, 0.6), searched, config).localized());
+
+  InitResult fetch;
+  fetch.status = InitResult::Status::kNeedsSubmaps;
+  fetch.missing_submaps = {7};
+  r = merge_coarse_rounds(near_miss, fetch, config);
+  EXPECT_EQ(r.status, InitResult::Status::kNeedsSubmaps);
+  EXPECT_EQ(r.missing_submaps, std::vector<int64_t>{7});
+
+  InitResult none;
+  none.reason = "no start";
+  r = merge_coarse_rounds(none, searched, config);  // as before: the search's answer
+  ASSERT_TRUE(r.localized());
+  r = merge_coarse_rounds(none, none, config);
+  EXPECT_FALSE(r.localized());
+  EXPECT_NE(r.reason.find("from the map's keyframes: no start"), std::string::npos) << r.reason;
+}
+
 // The target of a candidate must be fetched first: the initializer names the submaps it
 // needs instead of failing, and answers once they are there.
 TEST(PoseInitializer, NamesTheSubmapsItNeedsBeforeItHasThem) {

@@ -71,14 +71,16 @@ void InitializerConfig::validate() const {
       !(min_inlier_ratio > 0 && min_inlier_ratio <= 1) ||
       !(min_inlier_ratio_coarse > 0 && min_inlier_ratio_coarse <= 1) ||
       !(min_inlier_ratio_alone >= min_inlier_ratio && min_inlier_ratio_alone <= 1) ||
-      !(polish_below_inlier_ratio > 0 && polish_below_inlier_ratio <= 1) || !(inlier_m > 0) ||
-      !(coarse_start_spacing_m > 0) || !(coarse_distinct_m > 0) ||
+      !(polish_below_inlier_ratio > 0 && polish_below_inlier_ratio <= 1) ||
+      !(correlative_below_inlier_ratio >= 0 && correlative_below_inlier_ratio <= 1) ||
+      !(inlier_m > 0) || !(coarse_start_spacing_m > 0) || !(coarse_distinct_m > 0) ||
       !(max_alternative_ratio > 0 && max_alternative_ratio <= 1) ||
       independent_correspondences < 1) {
     throw std::invalid_argument(
         "max_descriptor_distance, the inlier ratios, polish_below_inlier_ratio and "
         "max_alternative_ratio must be in (0, 1] "
-        "(min_inlier_ratio_alone at least min_inlier_ratio), "
+        "(min_inlier_ratio_alone at least min_inlier_ratio; correlative_below_inlier_ratio "
+        "in [0, 1]), "
         "max_fitness_m, inlier_m, coarse_start_spacing_m and coarse_distinct_m positive, "
         "independent_correspondences at least 1");
   }
@@ -503,19 +505,11 @@ InitResult PoseInitializer::coarse_to_fine(const MapIndex& index, const InitQuer
   const bool ambiguous =
       std::any_of(result.candidates.begin(), result.candidates.end(),
                   [](const InitCandidate& c) { return c.rejected == kAmbiguous; });
-  if (result.status == InitResult::Status::kNotLocalized && !ambiguous) {
-    InitResult second = correlative_round(index, q, coarse, keyframes, targets);
-    if (second.status == InitResult::Status::kNotLocalized) {
-      second.reason = "from the map's keyframes: " + result.reason +
-                      "; from a correlative search: " + second.reason;
-    } else if (second.localized()) {
-      second.reason = "localized from a correlative search at " + describe(*second.best);
-    }
-    second.candidates.insert(second.candidates.end(), result.candidates.begin(),
-                             result.candidates.end());
-    second.targets_ms += result.targets_ms;
-    second.registration_ms += result.registration_ms;
-    result = std::move(second);
+  const bool weak =
+      result.localized() && result.best->inlier_ratio < config_.correlative_below_inlier_ratio;
+  if ((result.status == InitResult::Status::kNotLocalized && !ambiguous) || weak) {
+    result = merge_coarse_rounds(std::move(result),
+                                 correlative_round(index, q, coarse, keyframes, targets), config_);
   }
   result.time_ms = watch.ms();
   return result;
@@ -639,6 +633,51 @@ std::string HypothesisVoter::summary() const {
   }
   return std::to_string(keyframes_.size()) + " keyframe(s) voting, " + std::to_string(hypotheses) +
          " hypotheses";
+}
+
+InitResult merge_coarse_rounds(InitResult first, InitResult second,
+                               const InitializerConfig& config) {
+  const auto keep = [](InitResult& answer, InitResult& other) {
+    answer.candidates.insert(answer.candidates.end(), other.candidates.begin(),
+                             other.candidates.end());
+    answer.targets_ms += other.targets_ms;
+    answer.registration_ms += other.registration_ms;
+    return std::move(answer);
+  };
+  if (second.status == InitResult::Status::kNeedsSubmaps) {
+    return keep(second, first);  // asked again when they are there
+  }
+  if (first.localized() &&
+      !(second.localized() && second.best->inlier_ratio > first.best->inlier_ratio)) {
+    for (InitCandidate& c : second.candidates) {
+      if (c.rejected.empty()) {
+        c.rejected = "fewer inliers than the answer";
+      }
+    }
+    return keep(first, second);
+  }
+  if (first.localized()) {
+    // Both rounds answered and the search's has more inliers: where the two are distinct
+    // places, the other must clearly lose, as within a round.
+    if (!same_place(first.best->T_map_body, second.best->T_map_body, config.coarse_distinct_m) &&
+        first.best->inlier_ratio > config.max_alternative_ratio * second.best->inlier_ratio) {
+      second.status = InitResult::Status::kNotLocalized;
+      second.reason = "ambiguous: " + describe(*second.best) + " and " + describe(*first.best);
+      for (InitCandidate* c : {&second.candidates.front(), &first.candidates.front()}) {
+        c->rejected = kAmbiguous;
+      }
+      second.best.reset();
+      return keep(second, first);
+    }
+    first.candidates.front().rejected = "fewer inliers than the answer";
+  }
+  if (second.status == InitResult::Status::kNotLocalized) {
+    second.reason = "from the map's keyframes: " + first.reason +
+                    "; from a correlative search: " + second.reason;
+  } else if (second.localized()) {
+    second.reason = "localized from a correlative search at " + describe(*second.best);
+  }
+  return keep(second, first);
 }
 
 }  // namespace liloc

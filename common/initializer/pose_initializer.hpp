@@ -115,6 +115,13 @@ struct InitializerConfig {
   // candidates (4 LiDARs, sessions B-D) no pose off the truth scored above 0.9, and most
   // right ones do (it saves a third of the registration time).
   double polish_below_inlier_ratio = 0.9;
+  // Coarse-to-fine: an answer from the map's keyframes with fewer inliers than this is
+  // compared with the correlative search's (the one with more inliers wins). A Mid-360
+  // start in session C converged 0.64 m off from a keyframe's start (inliers 0.775,
+  // fitness 0.148 m, just inside max_fitness_m); the search's start gave 3 cm (0.84). Right
+  // poses mostly score above 0.85 (above), near misses up to 0.80; at 0.9 the search ran for
+  // most cross-sensor answers (bench_init median 0.26 -> 0.45 s there; 0.27 s at 0.8).
+  double correlative_below_inlier_ratio = 0.8;
   // The best must beat the best distinct alternative: its inlier ratio at most this
   // fraction of the best's. At 0.9 a Mid-360 keyframe at session C's start was localized
   // 12 m along a street (0.63 inliers, alternatives 4-8 m from it at 0.52-0.56, so 0.895 of
@@ -151,6 +158,7 @@ struct InitializerConfig {
     v("polish_offsets_m", polish_offsets_m);
     v("polish_min_gain", polish_min_gain);
     v("polish_below_inlier_ratio", polish_below_inlier_ratio);
+    v("correlative_below_inlier_ratio", correlative_below_inlier_ratio);
     v("max_alternative_ratio", max_alternative_ratio);
     v("independent_correspondences", independent_correspondences);
     v("inlier_m", inlier_m);
@@ -312,6 +320,13 @@ class PoseInitializer {
   InitializerConfig config_;
   PolarDescriptorConfig descriptor_;
 };
+
+// Coarse-to-fine's two rounds as one result: `first` from the map keyframes' starts,
+// `second` from the correlative search. The answer with more inliers wins; where the two answers
+// are distinct places, the loser must clearly lose (max_alternative_ratio) or neither is taken.
+// Every candidate is kept; a round that needs submaps makes the whole wait for them.
+InitResult merge_coarse_rounds(InitResult first, InitResult second,
+                               const InitializerConfig& config);
 
 // Global initialization over several keyframes: each keyframe's verified candidates,
 // carried into the odometry frame (T_map_odom = T_map_body T_odom_body^-1), vote for a
