@@ -649,6 +649,8 @@ InitResult merge_coarse_rounds(InitResult first, InitResult second,
   }
   if (first.localized() &&
       !(second.localized() && second.best->inlier_ratio > first.best->inlier_ratio)) {
+    // Every unmarked one: an ambiguous round leaves the candidates between its two places
+    // unmarked, not only its best.
     for (InitCandidate& c : second.candidates) {
       if (c.rejected.empty()) {
         c.rejected = "fewer inliers than the answer";
