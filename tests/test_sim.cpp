@@ -327,6 +327,70 @@ TEST(Lidar, PerPointTimesCarryTheMotionDistortion) {
   EXPECT_GT((max_time - min_time) * speed, 0.1) << "the wall spans enough of the sweep";
 }
 
+// A miscalibrated unit (the driver's nominal beam angles, the true ones off by the unit's
+// errors, a range bias per beam) standing on flat ground: each downward ring sees the
+// ground at the height its drawn errors predict, and a unit drawn with the same seed has
+// the same errors in every session.
+TEST(Lidar, BeamCalibrationErrorsMoveEachRingAsItsErrorsPredict) {
+  const World world = flat_world({});
+  const VehicleTrajectory trajectory(world, {{-40, 0}, {40, 0}}, MotionConfig{}, 1);
+  const LidarSpec spec = lidar_spec("hdl32");
+  RigConfig rig_config;
+  rig_config.beam_range_bias_sigma_m = 0.03;
+  rig_config.beam_elevation_sigma_deg = 0.2;
+  rig_config.beam_azimuth_sigma_deg = 0.2;
+  const SensorRig rig = rig_config.rig();
+  const std::vector<BeamError> errors = draw_beam_errors(spec, rig.beam_errors);
+  ASSERT_EQ(errors.size(), spec.elevations_rad.size());
+  RigConfig other_unit = rig_config;
+  other_unit.beam_error_seed = 2;
+  EXPECT_NE(draw_beam_errors(spec, other_unit.rig().beam_errors)[0].elevation_rad,
+            errors[0].elevation_rad);
+  EXPECT_EQ(draw_beam_errors(spec, rig.beam_errors)[5].range_bias_m, errors[5].range_bias_m);
+  EXPECT_TRUE(draw_beam_errors(spec, SensorRig{}.beam_errors).empty());
+
+  // Ground height seen by each ring, per unit: the median world z of its points.
+  const auto ring_heights = [&](const SensorRig& unit) {
+    const SessionSimulator sim(world, trajectory, spec, unit, ImuConfig{}, 3, 0);
+    RaycastScratch scratch;
+    const LidarScan scan = sim.simulate_sweep(5, scratch);  // standing still at the start
+    std::vector<std::vector<double>> z(spec.elevations_rad.size());
+    const Eigen::Isometry3d T_world_lidar = trajectory.pose(0.5) * unit.T_body_lidar;
+    for (const LidarPoint& p : scan.points) {
+      z[p.ring].push_back((T_world_lidar * p.position_m.cast<double>()).z());
+    }
+    std::vector<double> medians;
+    for (std::vector<double>& ring : z) {
+      std::nth_element(ring.begin(), ring.begin() + ring.size() / 2, ring.end());
+      medians.push_back(ring.empty() ? NAN : ring[ring.size() / 2]);
+    }
+    return medians;
+  };
+  const double lidar_height_m = (trajectory.pose(0.5) * rig.T_body_lidar).translation().z();
+  const std::vector<double> ideal = ring_heights(SensorRig{});
+  const std::vector<double> miscalibrated = ring_heights(rig);
+  int ground_rings = 0;
+  double largest_offset_m = 0.0;
+  for (size_t r = 0; r < spec.elevations_rad.size(); ++r) {
+    const double elevation = spec.elevations_rad[r];
+    if (elevation > -2.0 * M_PI / 180.0) {
+      continue;  // sees the far ground only at grazing angles, or the sky
+    }
+    ++ground_rings;
+    EXPECT_NEAR(ideal[r], 0.0, 0.01) << "ring " << r;
+    // The beam fires at elevation + error, meets the ground at that slant range, and the
+    // driver places the biased range along the nominal elevation.
+    const BeamError& e = errors[r];
+    const double true_range_m = lidar_height_m / -std::sin(elevation + e.elevation_rad);
+    const double expected_z =
+        lidar_height_m + (true_range_m + e.range_bias_m) * std::sin(elevation);
+    EXPECT_NEAR(miscalibrated[r], expected_z, 0.01) << "ring " << r;
+    largest_offset_m = std::max(largest_offset_m, std::abs(miscalibrated[r]));
+  }
+  EXPECT_GE(ground_rings, 20);
+  EXPECT_GT(largest_offset_m, 0.03) << "the errors must show";
+}
+
 TEST(Lidar, ModelsHaveTheirBeamPatterns) {
   EXPECT_EQ(lidar_spec("vlp16").rays_per_sweep(), 16 * 1800);
   EXPECT_EQ(lidar_spec("hdl32").rays_per_sweep(), 32 * 2170);

@@ -6,7 +6,8 @@
 // several random drop patterns, whose ATE differs by the few sweeps after the longest
 // gaps); --world-seed draws another town; --misconfig simulates a rig that differs from
 // the configuration (the LiDAR yawed 90 degrees, or its clock 20 ms late) and records what
-// the extrinsic check said.
+// the extrinsic check said, or a miscalibrated LiDAR unit (its beams off their nominal
+// angles and ranges: the driver's calibration is not the unit's).
 // Prints a table and writes bench/results/odometry.json with, per run:
 // session, world, world_seed, lidar, imu, sweeps, rpe_percent, ate_m, ms_median, ms_p99,
 // peak_rss_mb, ...
@@ -99,7 +100,7 @@ struct Run {
 Run run_session(const std::string& world_kind, const std::string& lidar, const std::string& session,
                 bool use_imu, double length_scale, int trace, bool clean_imu,
                 const std::string& config_path, int64_t world_seed, bool irregular, int drop_seed,
-                const std::string& misconfig) {
+                const std::string& misconfig, const Eigen::Vector3d& beam_errors) {
   sim::SimulationConfig sim_config;
   sim_config.world.kind = world_kind;
   sim_config.world.seed = world_seed;
@@ -120,6 +121,11 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
     simulated_rig.lidar_rpy_deg.z() += 90.0;
   } else if (misconfig == "clock") {
     simulated_rig.lidar_time_offset_s += 0.02;
+  } else if (misconfig == "beams") {
+    simulated_rig.beam_range_bias_sigma_m = beam_errors.x();
+    simulated_rig.beam_elevation_sigma_deg = beam_errors.y();
+    simulated_rig.beam_azimuth_sigma_deg = beam_errors.z();
+    simulated_rig.validate();
   }
   const sim::SensorRig rig = simulated_rig.rig();
   const sim::SessionSimulator simulator(world, trajectory, sim::lidar_spec(lidar), rig,
@@ -142,6 +148,12 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   run.irregular = irregular;
   run.drop_seed = drop_seed;
   run.misconfig = misconfig;
+  if (misconfig == "beams") {
+    char unit[96];
+    std::snprintf(unit, sizeof(unit), "beams %g m %g deg %g deg", beam_errors.x(), beam_errors.y(),
+                  beam_errors.z());
+    run.misconfig = unit;
+  }
   SweepDropper dropper(irregular, seed + 7 + static_cast<uint64_t>(drop_seed));
   std::vector<StampedPose> estimate;
   std::vector<double> cycle_ms;
@@ -258,6 +270,7 @@ int main(int argc, char** argv) {
   std::string imu = "on";
   std::string timing = "regular";
   std::string misconfig = "none";
+  std::string beam_errors = "0.02,0.1,0.1";
   int trace = 0;
   bool clean_imu = false;
   int world_seed = 1;
@@ -282,20 +295,32 @@ int main(int argc, char** argv) {
                  "sweeps");
   cli.add_option("misconfig", &misconfig,
                  "none, extrinsic (LiDAR simulated yawed 90 deg on the IMU, configured as "
-                 "not) or clock (LiDAR clock 20 ms late, not configured); comma list");
+                 "not), clock (LiDAR clock 20 ms late, not configured) or beams (a "
+                 "miscalibrated unit, --beam-errors); comma list");
+  cli.add_option("beam-errors", &beam_errors,
+                 "--misconfig beams: the unit's per-beam errors, 1 sigma: range bias (m), "
+                 "elevation (deg), azimuth (deg)");
   cli.add_option("trace", &trace, "print every N-th estimate against ground truth (0: none)");
   return run_program(cli, "bench_odometry", argc, argv, [&]() -> int {
     const std::vector<std::string> models =
         lidars == "all" ? sim::lidar_models() : split_list(lidars);
     for (const std::string& mode : split_list(imu + "," + timing + "," + misconfig)) {
       if (mode != "on" && mode != "off" && mode != "regular" && mode != "irregular" &&
-          mode != "none" && mode != "extrinsic" && mode != "clock") {
+          mode != "none" && mode != "extrinsic" && mode != "clock" && mode != "beams") {
         throw std::invalid_argument(
             "--imu takes on/off, --timing regular/irregular, --misconfig "
-            "none/extrinsic/clock: " +
+            "none/extrinsic/clock/beams: " +
             mode);
       }
     }
+    const std::vector<std::string> beam_error_parts = split_list(beam_errors);
+    if (beam_error_parts.size() != 3) {
+      throw std::invalid_argument("--beam-errors takes range_m,elevation_deg,azimuth_deg: " +
+                                  beam_errors);
+    }
+    const Eigen::Vector3d beam_sigmas(std::stod(beam_error_parts[0]),
+                                      std::stod(beam_error_parts[1]),
+                                      std::stod(beam_error_parts[2]));
     std::vector<int> drop_seed_list;
     for (const std::string& text : split_list(drop_seeds)) {
       char* end = nullptr;
@@ -327,7 +352,7 @@ int main(int argc, char** argv) {
                 for (const std::string& rig_mode : split_list(misconfig)) {
                   runs.push_back(run_session(world, model, session, imu_mode == "on", length_scale,
                                              trace, clean_imu, config_path, world_seed, irregular,
-                                             drop_seed, rig_mode));
+                                             drop_seed, rig_mode, beam_sigmas));
                   print_row(runs.back());
                 }
               }

@@ -1,7 +1,10 @@
 #include "sim/lidar_model.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
+
+#include "sim/random.hpp"
 
 namespace liloc::sim {
 namespace {
@@ -58,6 +61,28 @@ LidarSpec lidar_spec(const std::string& model) {
     throw std::invalid_argument("unknown LiDAR model '" + model + "' (known:" + known + ")");
   }
   return s;
+}
+
+Eigen::Vector3d BeamError::true_direction(const Eigen::Vector3d& nominal) const {
+  const double elevation = std::asin(std::clamp(nominal.z(), -1.0, 1.0)) + elevation_rad;
+  const double azimuth = std::atan2(nominal.y(), nominal.x()) + azimuth_rad;
+  return Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
+                         std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
+}
+
+std::vector<BeamError> draw_beam_errors(const LidarSpec& spec, const BeamErrorSigmas& sigmas) {
+  if (!sigmas.any()) {
+    return {};
+  }
+  const int beams = spec.spinning() ? static_cast<int>(spec.elevations_rad.size()) : spec.lasers;
+  Random rng(mix64(sigmas.seed));
+  std::vector<BeamError> errors(static_cast<size_t>(beams));
+  for (BeamError& e : errors) {
+    e.range_bias_m = rng.normal(0.0, sigmas.range_bias_m);
+    e.elevation_rad = rng.normal(0.0, sigmas.elevation_rad);
+    e.azimuth_rad = rng.normal(0.0, sigmas.azimuth_rad);
+  }
+  return errors;
 }
 
 std::vector<LidarRay> sweep_rays(const LidarSpec& spec, int64_t sweep_index) {

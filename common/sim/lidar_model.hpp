@@ -43,6 +43,32 @@ struct LidarRay {
   uint8_t ring;
 };
 
+// A unit's intrinsic calibration error: each beam fires at an elevation and azimuth off
+// the nominal ones its driver reports, and its ranges carry a bias. Real units keep such
+// errors after factory calibration (centimetres, tenths of a degree); they make a point's
+// error depend on the viewpoint, so registration against a map stops being exact.
+struct BeamErrorSigmas {
+  double range_bias_m = 0.0;
+  double elevation_rad = 0.0;
+  double azimuth_rad = 0.0;
+  uint64_t seed = 1;  // the unit: every session of one sensor shares its errors
+
+  bool any() const { return range_bias_m > 0 || elevation_rad > 0 || azimuth_rad > 0; }
+};
+
+struct BeamError {
+  double range_bias_m = 0.0;
+  double elevation_rad = 0.0;
+  double azimuth_rad = 0.0;
+
+  // The direction the beam really fires in, for the nominal unit direction `nominal`.
+  Eigen::Vector3d true_direction(const Eigen::Vector3d& nominal) const;
+};
+
+// One error per beam (a ring of a spinning sensor, a laser of the non-repetitive one);
+// empty when every sigma is zero.
+std::vector<BeamError> draw_beam_errors(const LidarSpec& spec, const BeamErrorSigmas& sigmas);
+
 // The rays of sweep number `sweep_index` in firing order. Spinning sensors repeat every
 // sweep; the non-repetitive pattern depends on the index.
 std::vector<LidarRay> sweep_rays(const LidarSpec& spec, int64_t sweep_index);

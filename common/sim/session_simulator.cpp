@@ -15,6 +15,7 @@ SessionSimulator::SessionSimulator(const World& world, const VehicleTrajectory& 
       trajectory_(trajectory),
       lidar_(std::move(lidar)),
       rig_(rig),
+      beam_errors_(draw_beam_errors(lidar_, rig_.beam_errors)),
       imu_(imu),
       seed_(seed),
       start_utime_(start_utime) {
@@ -45,7 +46,12 @@ LidarScan SessionSimulator::simulate_sweep(int64_t index, RaycastScratch& scratc
       pose_time = ray.time_offset_s;
       T_world_lidar = trajectory_.pose(t0 + ray.time_offset_s) * rig_.T_body_lidar;
     }
-    const Eigen::Vector3d dir = T_world_lidar.linear() * ray.direction.cast<double>();
+    // The beam fires where its unit's calibration error turns it; the point is reported
+    // along the nominal direction, as a driver with the nominal calibration would.
+    const Eigen::Vector3d nominal = ray.direction.cast<double>();
+    const BeamError* beam_error = beam_errors_.empty() ? nullptr : &beam_errors_[ray.ring];
+    const Eigen::Vector3d dir =
+        T_world_lidar.linear() * (beam_error ? beam_error->true_direction(nominal) : nominal);
     // Draw the noise for every ray, hit or not, so that a sweep's draws do not depend on
     // what it hits.
     const double noise = rng.normal(0.0, lidar_.range_noise_m);
@@ -62,10 +68,10 @@ LidarScan SessionSimulator::simulate_sweep(int64_t index, RaycastScratch& scratc
     if (u_drop < p_lost) {
       continue;
     }
-    const double range = hit->range_m + noise;
+    const double range = hit->range_m + noise + (beam_error ? beam_error->range_bias_m : 0.0);
     const double cos_incidence = std::abs(hit->normal.dot(dir));
     LidarPoint p;
-    p.position_m = (ray.direction.cast<double>() * range).cast<float>();
+    p.position_m = (nominal * range).cast<float>();
     p.intensity = static_cast<float>(std::min(
         255.0, 255.0 * hit->reflectivity * std::sqrt(cos_incidence) * (0.95 + 0.1 * u_intensity)));
     p.time_offset_s = ray.time_offset_s;

@@ -22,6 +22,7 @@ namespace liloc::sim {
 struct SensorRig {
   Eigen::Isometry3d T_body_lidar = Eigen::Isometry3d::Identity();
   double lidar_time_offset_s = 0.0;  // LiDAR clock minus IMU clock
+  BeamErrorSigmas beam_errors;       // the LiDAR unit's intrinsic calibration error
 };
 
 struct SessionStats {
@@ -58,6 +59,7 @@ class SessionSimulator {
   const VehicleTrajectory& trajectory_;
   LidarSpec lidar_;
   SensorRig rig_;
+  std::vector<BeamError> beam_errors_;  // per beam; empty for an ideal unit
   ImuConfig imu_;
   uint64_t seed_;
   int64_t start_utime_;

@@ -18,12 +18,22 @@ struct RigConfig {
   Eigen::Vector3d lidar_translation_m{0.05, 0.0, 0.35};  // LiDAR origin in the body frame
   Eigen::Vector3d lidar_rpy_deg{0.0, 0.0, 0.0};          // roll, pitch, yaw of the LiDAR
   double lidar_time_offset_s = 0.0;                      // LiDAR clock minus IMU clock
+  // The LiDAR unit's intrinsic calibration error, 1 sigma per beam (0: an ideal unit).
+  // Drawn once from beam_error_seed: sessions simulated with one seed share one unit.
+  double beam_range_bias_sigma_m = 0.0;
+  double beam_elevation_sigma_deg = 0.0;
+  double beam_azimuth_sigma_deg = 0.0;
+  int64_t beam_error_seed = 1;
 
   template <class V>
   void visit_fields(V& v) {
     v("lidar_translation_m", lidar_translation_m);
     v("lidar_rpy_deg", lidar_rpy_deg);
     v("lidar_time_offset_s", lidar_time_offset_s);
+    v("beam_range_bias_sigma_m", beam_range_bias_sigma_m);
+    v("beam_elevation_sigma_deg", beam_elevation_sigma_deg);
+    v("beam_azimuth_sigma_deg", beam_azimuth_sigma_deg);
+    v("beam_error_seed", beam_error_seed);
   }
   void validate() const;
   SensorRig rig() const;
