@@ -329,8 +329,9 @@ TEST(Lidar, PerPointTimesCarryTheMotionDistortion) {
 
 // A miscalibrated unit (the driver's nominal beam angles, the true ones off by the unit's
 // errors, a range bias per beam) standing on flat ground: each downward ring sees the
-// ground at the height its drawn errors predict, and a unit drawn with the same seed has
-// the same errors in every session.
+// ground at the height its drawn elevation and range errors predict (flat ground cannot
+// show an azimuth error), and a unit drawn with the same seed has the same errors in every
+// session.
 TEST(Lidar, BeamCalibrationErrorsMoveEachRingAsItsErrorsPredict) {
   const World world = flat_world({});
   const VehicleTrajectory trajectory(world, {{-40, 0}, {40, 0}}, MotionConfig{}, 1);
