@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <numeric>
 #include <sstream>
@@ -638,8 +639,9 @@ std::string HypothesisVoter::summary() const {
 InitResult merge_coarse_rounds(InitResult first, InitResult second,
                                const InitializerConfig& config) {
   const auto keep = [](InitResult& answer, InitResult& other) {
-    answer.candidates.insert(answer.candidates.end(), other.candidates.begin(),
-                             other.candidates.end());
+    answer.candidates.insert(answer.candidates.end(),
+                             std::make_move_iterator(other.candidates.begin()),
+                             std::make_move_iterator(other.candidates.end()));
     answer.targets_ms += other.targets_ms;
     answer.registration_ms += other.registration_ms;
     return std::move(answer);
