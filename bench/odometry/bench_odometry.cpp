@@ -7,13 +7,15 @@
 // gaps); --world-seed draws another town; --misconfig simulates a rig that differs from
 // the configuration (the LiDAR yawed 90 degrees, or its clock 20 ms late) and records what
 // the extrinsic check said, or a miscalibrated LiDAR unit (its beams off their nominal
-// angles and ranges: the driver's calibration is not the unit's).
+// angles and ranges: the driver's calibration is not the unit's); --imu-fault offsets the
+// accelerometer or gyro for a while (a bias step, a faulty IMU).
 // Prints a table and writes bench/results/odometry.json with, per run:
 // session, world, world_seed, lidar, imu, sweeps, rpe_percent, ate_m, ms_median, ms_p99,
 // peak_rss_mb, ...
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -92,15 +94,66 @@ struct Run {
   int64_t map_restarts = 0;
   int64_t reanchors = 0;
   int64_t lost_scans = 0;
+  int64_t health_resets = 0;
+  int64_t imu_disagreements = 0;
+  std::string imu_fault = "none";
   int64_t keyframes = 0;
   double accel_bias_error = 0.0;
   double gyro_bias_error = 0.0;
 };
 
+// An IMU that goes wrong for a while: its accelerometer's x (m/s^2) or its gyro's z
+// (rad/s) offset by `magnitude` from start_s to start_s + duration_s into the session.
+struct ImuFault {
+  std::string kind = "none";  // none, accel or gyro
+  double magnitude = 0.0;
+  double start_s = 0.0;
+  double duration_s = 0.0;
+
+  std::string describe() const {
+    char text[96];
+    std::snprintf(text, sizeof(text), "%s %+g %s from %g s for %g s", kind.c_str(), magnitude,
+                  kind == "accel" ? "m/s^2" : "rad/s", start_s, duration_s);
+    return kind == "none" ? "none" : text;
+  }
+  void apply(ImuSample& sample, int64_t session_start_utime) const {
+    const double t = (sample.utime_us - session_start_utime) * 1e-6;
+    if (kind == "none" || t < start_s || t >= start_s + duration_s) {
+      return;
+    }
+    if (kind == "accel") {
+      sample.accel_mps2.x() += magnitude;
+    } else {
+      sample.gyro_rps.z() += magnitude;
+    }
+  }
+};
+
+ImuFault parse_imu_fault(const std::string& text) {
+  ImuFault fault;
+  const std::vector<std::string> parts = split_list(text);
+  if (text == "none") {
+    return fault;
+  }
+  if (parts.size() != 4 || (parts[0] != "accel" && parts[0] != "gyro")) {
+    throw std::invalid_argument(
+        "--imu-fault takes none or accel|gyro,magnitude,start_s,duration_s: " + text);
+  }
+  fault.kind = parts[0];
+  fault.magnitude = std::stod(parts[1]);
+  fault.start_s = std::stod(parts[2]);
+  fault.duration_s = std::stod(parts[3]);
+  if (!std::isfinite(fault.magnitude) || !(fault.start_s >= 0) || !(fault.duration_s > 0)) {
+    throw std::invalid_argument("--imu-fault: finite magnitude, start >= 0, duration > 0: " + text);
+  }
+  return fault;
+}
+
 Run run_session(const std::string& world_kind, const std::string& lidar, const std::string& session,
                 bool use_imu, double length_scale, int trace, bool clean_imu,
                 const std::string& config_path, int64_t world_seed, bool irregular, int drop_seed,
-                const std::string& misconfig, const Eigen::Vector3d& beam_errors) {
+                const std::string& misconfig, const Eigen::Vector3d& beam_errors,
+                const ImuFault& imu_fault) {
   sim::SimulationConfig sim_config;
   sim_config.world.kind = world_kind;
   sim_config.world.seed = world_seed;
@@ -200,15 +253,19 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
       }
     }
   };
-  simulator.run([&](const ImuSample& s) { odometry.add_imu(s); },
-                [&](const LidarScan& scan) {
-                  if (dropper.keep(scan.utime_us)) {
-                    ++run.sweeps_used;
-                    odometry.add_scan(scan);
-                    consume(odometry.process());
-                  }
-                },
-                [](double) {}, 2);
+  simulator.run(
+      [&](ImuSample s) {
+        imu_fault.apply(s, recipe.start_utime);
+        odometry.add_imu(s);
+      },
+      [&](const LidarScan& scan) {
+        if (dropper.keep(scan.utime_us)) {
+          ++run.sweeps_used;
+          odometry.add_scan(scan);
+          consume(odometry.process());
+        }
+      },
+      [](double) {}, 2);
   consume(odometry.flush());
   run.rss_end_mb = read_process_memory().rss_mb;
   run.peak_rss_mb = read_process_memory().peak_mb;
@@ -220,6 +277,9 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   run.map_restarts = odometry.counters().map_restarts;
   run.reanchors = odometry.counters().reanchors;
   run.lost_scans = odometry.counters().lost_scans;
+  run.health_resets = odometry.counters().health_resets;
+  run.imu_disagreements = odometry.counters().imu_disagreements;
+  run.imu_fault = imu_fault.describe();
   run.keyframes = odometry.counters().keyframes;
   if (use_imu) {
     // The true biases drift only a little (random walk) from their turn-on values.
@@ -258,6 +318,10 @@ void print_row(const Run& r) {
   std::fprintf(stderr, "%s %s %s rig %s: extrinsic check at %.1f s: %s\n", r.world.c_str(),
                r.lidar.c_str(), r.session.c_str(), r.misconfig.c_str(), r.extrinsic_check_at_s,
                r.extrinsic_check.empty() ? "(none)" : r.extrinsic_check.c_str());
+  std::fprintf(
+      stderr, "%s %s %s IMU fault %s: %lld health resets, %lld sweeps contradicting the IMU\n",
+      r.world.c_str(), r.lidar.c_str(), r.session.c_str(), r.imu_fault.c_str(),
+      static_cast<long long>(r.health_resets), static_cast<long long>(r.imu_disagreements));
 }
 }  // namespace
 
@@ -271,6 +335,7 @@ int main(int argc, char** argv) {
   std::string timing = "regular";
   std::string misconfig = "none";
   std::string beam_errors = "0.02,0.1,0.1";
+  std::string imu_fault = "none";
   int trace = 0;
   bool clean_imu = false;
   int world_seed = 1;
@@ -300,6 +365,9 @@ int main(int argc, char** argv) {
   cli.add_option("beam-errors", &beam_errors,
                  "--misconfig beams: the unit's per-beam errors, 1 sigma: range bias (m), "
                  "elevation (deg), azimuth (deg)");
+  cli.add_option("imu-fault", &imu_fault,
+                 "none, or accel|gyro,magnitude,start_s,duration_s: the accelerometer's x "
+                 "(m/s^2) or the gyro's z (rad/s) offset for a while");
   cli.add_option("trace", &trace, "print every N-th estimate against ground truth (0: none)");
   return run_program(cli, "bench_odometry", argc, argv, [&]() -> int {
     const std::vector<std::string> models =
@@ -313,6 +381,7 @@ int main(int argc, char** argv) {
             mode);
       }
     }
+    const ImuFault fault = parse_imu_fault(imu_fault);
     const std::vector<std::string> beam_error_parts = split_list(beam_errors);
     if (beam_error_parts.size() != 3) {
       throw std::invalid_argument("--beam-errors takes range_m,elevation_deg,azimuth_deg: " +
@@ -352,7 +421,7 @@ int main(int argc, char** argv) {
                 for (const std::string& rig_mode : split_list(misconfig)) {
                   runs.push_back(run_session(world, model, session, imu_mode == "on", length_scale,
                                              trace, clean_imu, config_path, world_seed, irregular,
-                                             drop_seed, rig_mode, beam_sigmas));
+                                             drop_seed, rig_mode, beam_sigmas, fault));
                   print_row(runs.back());
                 }
               }
@@ -428,6 +497,12 @@ int main(int argc, char** argv) {
           .integer(r.map_restarts)
           .key("reanchors")
           .integer(r.reanchors)
+          .key("health_resets")
+          .integer(r.health_resets)
+          .key("imu_disagreements")
+          .integer(r.imu_disagreements)
+          .key("imu_fault")
+          .string(r.imu_fault)
           .key("accel_bias_error_mps2")
           .number(r.accel_bias_error)
           .key("gyro_bias_error_rps")

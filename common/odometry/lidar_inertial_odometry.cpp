@@ -84,6 +84,10 @@ void OdometryConfig::validate() const {
   if (reanchor_attempts < 0) {
     throw std::invalid_argument("reanchor_attempts must be at least 0 (0: never)");
   }
+  if (!(imu_consistency_nis >= 0) || imu_distrust_doublings < 0) {
+    throw std::invalid_argument(
+        "imu_consistency_nis (0: no check) and imu_distrust_doublings must be at least 0");
+  }
   if (weak_fit_correspondences < 0) {
     throw std::invalid_argument("weak_fit_correspondences must be at least 0 (0: no check)");
   }
@@ -122,6 +126,11 @@ void OdometryConfig::validate() const {
                     {"search_runner_up_fraction", search_runner_up_fraction},
                     {"reanchor_after_s", reanchor_after_s},
                     {"lost_after_degenerate_s", lost_after_degenerate_s},
+                    {"imu_distrust_accel_mps2", imu_distrust_accel_mps2},
+                    {"imu_distrust_gyro_rps", imu_distrust_gyro_rps},
+                    {"imu_distrust_settled_m", imu_distrust_settled_m},
+                    {"imu_distrust_settled_rad", imu_distrust_settled_rad},
+                    {"imu_distrust_hold_s", imu_distrust_hold_s},
                     {"max_speed_mps", max_speed_mps},
                     {"max_accel_mps2", max_accel_mps2},
                     {"max_jump_m", max_jump_m},
@@ -530,6 +539,7 @@ void LidarInertialOdometry::predict_and_deskew(Sweep& sweep, OdometryEstimate& e
 
 void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) {
   est.registered = true;
+  imu_distrusted_ = config_.use_imu && sweep.end_utime <= imu_distrusted_until_us_;
   if (map_.empty()) {
     return;  // the first sweep defines the map
   }
@@ -578,9 +588,12 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
         source, map_, prior.T_target_source, prior,
         registration_config(std::min(reach_m, config_.correspondence_cap_m)),
         T_body_lidar_.translation());
+    result = outweigh_imu(sweep, source, prior, reach_m, std::move(result), est);
   }
   const Eigen::Vector3d p_predicted = x_.p;
-  update(result, !long_gap);
+  // Biases and gravity are considered (Schmidt) across a long gap and while the IMU is
+  // distrusted: neither sweep tells them apart from the gap's or the fault's motion.
+  update(result, !long_gap && !imu_distrusted_);
   if (!config_.use_imu) {
     const Vector6d twist_predicted = twist_;
     update_twist(sweep);
@@ -630,16 +643,110 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
   if (!est.standing) {
     recent_fits_.emplace_back(sweep.end_utime, result.correspondences);
   }
-  if (const std::string unhealthy = health_problem(sweep, p_predicted); !unhealthy.empty()) {
-    est.lost_reason = unhealthy + ": the local map restarts at the last trusted pose";
+  if (const std::optional<HealthProblem> problem = health_problem(sweep, p_predicted)) {
+    est.lost_reason = problem->reason + (problem->local_map_suspect
+                                             ? ": the local map restarts at the last trusted pose"
+                                             : ": back to the last trusted pose and velocity");
     ++counters_.health_resets;
-    reset_to(sweep);
+    reset_to(sweep, problem->local_map_suspect);
+    // The velocity is now the last trusted one, not this sweep's: the next sweeps correct it.
+    imu_distrusted_until_us_ = sweep.end_utime + to_us(config_.imu_distrust_hold_s);
+  } else if (!imu_distrusted_) {
+    trusted_velocity_ = x_.v;
   }
 }
 
-std::string LidarInertialOdometry::health_problem(const Sweep& sweep,
-                                                  const Eigen::Vector3d& p_predicted) {
+double LidarInertialOdometry::innovation_nis(const RegistrationResult& result) const {
+  // The registration solved prior + LiDAR: d = K nu with K = P (P + R)^-1, R the inverse of
+  // the LiDAR's information H. So y = P^-1 d = (P + R)^-1 nu, and
+  // nu' (P + R)^-1 nu = y' (P + R) y = y' P y + y' H^-1 y. (H regularized: along a
+  // degenerate direction the registration leaves the prior, and y there is 0.)
+  const Matrix6d P_pp = P_.topLeftCorner<6, 6>();
+  const Vector6d y = P_pp.ldlt().solve(se3::minus(result.T_target_source, T_local_body()));
+  Matrix6d H = result.information;
+  H.diagonal().array() += 1e-6;
+  return y.dot(P_pp * y) + y.dot(H.ldlt().solve(y));
+}
+
+RegistrationResult LidarInertialOdometry::outweigh_imu(const Sweep& sweep,
+                                                       const std::vector<Eigen::Vector3f>& source,
+                                                       PosePrior prior, double reach_m,
+                                                       RegistrationResult result,
+                                                       OdometryEstimate& est) {
+  if (!config_.use_imu || config_.imu_consistency_nis == 0.0) {
+    return result;
+  }
+  const double nis = innovation_nis(result);
+  if (nis > config_.imu_consistency_nis) {
+    imu_distrusted_until_us_ = sweep.end_utime + to_us(config_.imu_distrust_hold_s);
+    imu_distrusted_ = true;
+    ++counters_.imu_disagreements;
+  }
+  if (!imu_distrusted_) {
+    return result;
+  }
+  // The hold matters: within a fault some sweeps pass the test by chance (the registration
+  // is pulled towards the prediction it contradicts), and those left their velocity
+  // uncorrected (100 m/s^2 for 0.25 s: a reset instead of 0.04 m ATE).
+  const double dt_s = std::max(sweep.gap_s(), 1e-3);
+  const StateMatrix P_predicted = P_;
+  double accel = 0.0;
+  double gyro = 0.0;
+  for (int k = 0; k <= config_.imu_distrust_doublings; ++k) {
+    accel = std::ldexp(config_.imu_distrust_accel_mps2, k);
+    gyro = std::ldexp(config_.imu_distrust_gyro_rps, k);
+    P_ = P_predicted;
+    widen_prediction(accel, gyro, dt_s);
+    prior.information = P_.topLeftCorner<6, 6>().inverse();
+    const double radius_m =
+        std::min(std::max(prediction_reach_m(), reach_m), config_.correspondence_cap_m);
+    RegistrationResult widened =
+        register_point_to_plane(source, map_, prior.T_target_source, prior,
+                                registration_config(radius_m), T_body_lidar_.translation());
+    // Widened until the LiDAR, not the prior, places the sweep: the pose stops moving.
+    const Vector6d moved = se3::minus(widened.T_target_source, result.T_target_source);
+    result = std::move(widened);
+    if (moved.head<3>().norm() < config_.imu_distrust_settled_m &&
+        moved.tail<3>().norm() < config_.imu_distrust_settled_rad) {
+      break;
+    }
+  }
+  if (nis > config_.imu_consistency_nis) {
+    char text[240];
+    std::snprintf(
+        text, sizeof(text),
+        "the LiDAR contradicts the IMU's prediction (NIS %.0f, beyond "
+        "imu_consistency_nis %.1f; registration moved it %.2f m, %.2f deg): the "
+        "prediction is widened to %.0f m/s^2, %.1f rad/s (an IMU bias step or fault?)",
+        nis, config_.imu_consistency_nis,
+        (result.T_target_source.translation() - T_local_body().translation()).norm(),
+        se3::rotation_angle(T_local_body().inverse() * result.T_target_source) * so3::kRadToDeg,
+        accel, gyro);
+    est.imu_disagreement = text;
+  }
+  return result;
+}
+
+void LidarInertialOdometry::widen_prediction(double accel_mps2, double gyro_rps, double dt_s) {
+  // The velocity at the interval's start uncertain by accel * dt, and the acceleration over
+  // it by accel: position and velocity then correlate between a pure velocity error (the
+  // LiDAR's position innovation / dt corrects the velocity) and a pure acceleration
+  // (2 / dt), so the correction neither lags a lasting fault nor rings after it. With
+  // the acceleration alone the velocity alternated by +-0.5 m/s from sweep to sweep.
+  const double q = accel_mps2 * accel_mps2;
+  const double dt2 = dt_s * dt_s;
+  const Eigen::Matrix3d R_body_local = x_.R.transpose();  // position errors are body-frame
+  P_.block<3, 3>(kPos, kPos).diagonal().array() += q * dt2 * dt2 * (0.25 + 1.0);
+  P_.block<3, 3>(kPos, kVel) += R_body_local * (q * dt2 * dt_s * (0.5 + 1.0));
+  P_.block<3, 3>(kVel, kPos) += R_body_local.transpose() * (q * dt2 * dt_s * (0.5 + 1.0));
+  P_.block<3, 3>(kVel, kVel).diagonal().array() += q * dt2 * (1.0 + 1.0);
+  P_.block<3, 3>(kRot, kRot).diagonal().array() += gyro_rps * gyro_rps * dt2;
+}
+
+std::optional<LidarInertialOdometry::HealthProblem> LidarInertialOdometry::health_problem(
+    const Sweep& sweep, const Eigen::Vector3d& p_predicted) {
   char text[200];
+  bool local_map_suspect = !config_.use_imu;
   const double dt = std::max(sweep.gap_s(), 1e-3);
   const double speed = x_.v.norm();
   const double accel = (x_.v - sweep.velocity_before).norm() / dt;
@@ -647,7 +754,7 @@ std::string LidarInertialOdometry::health_problem(const Sweep& sweep,
   if (speed > config_.max_speed_mps) {
     std::snprintf(text, sizeof(text), "speed %.1f m/s beyond max_speed_mps %.1f", speed,
                   config_.max_speed_mps);
-  } else if (config_.use_imu && accel > config_.max_accel_mps2) {
+  } else if (config_.use_imu && accel > config_.max_accel_mps2 && !imu_distrusted_) {
     // (Without an IMU the velocity is a difference of poses 0.1 s apart, too noisy for this.)
     std::snprintf(text, sizeof(text),
                   "the velocity changed by %.1f m/s in %.2f s (%.0f m/s^2, beyond "
@@ -665,10 +772,11 @@ std::string LidarInertialOdometry::health_problem(const Sweep& sweep,
                   "(fewer than weak_fit_correspondences %d): it no longer fits what the "
                   "LiDAR sees",
                   config_.weak_fit_window_s, *matches, config_.weak_fit_correspondences);
+    local_map_suspect = true;
   } else {
-    return {};
+    return std::nullopt;
   }
-  return text;
+  return HealthProblem{text, local_map_suspect};
 }
 
 std::optional<int> LidarInertialOdometry::weak_fit_median(int64_t now_us) {
@@ -696,13 +804,14 @@ std::optional<int> LidarInertialOdometry::weak_fit_median(int64_t now_us) {
   return *middle;
 }
 
-void LidarInertialOdometry::reset_to(const Sweep& sweep) {
-  // Back to the previous sweep's pose and velocity, with the uncertainty of a restart:
-  // the pose, rotation and velocity forget their correlations; biases and gravity keep
-  // theirs.
+void LidarInertialOdometry::reset_to(const Sweep& sweep, bool restart_map) {
+  // Back to the previous sweep's pose and the last trusted velocity, with the uncertainty
+  // of a restart: the pose, rotation and velocity forget their correlations; biases and
+  // gravity keep theirs. (The previous sweep's velocity may be the fault's: resetting to
+  // it repeated the runaway, reset after reset; docs/odometry.md.)
   x_.R = sweep.T_local_body_before.linear();
   x_.p = sweep.T_local_body_before.translation();
-  x_.v = sweep.velocity_before;
+  x_.v = config_.use_imu ? trusted_velocity_ : sweep.velocity_before;
   twist_.setZero();
   twist_.head<3>() = x_.R.transpose() * x_.v;
   StateVector sigma = P_.diagonal().cwiseSqrt();
@@ -713,7 +822,9 @@ void LidarInertialOdometry::reset_to(const Sweep& sweep) {
   P_ = sigma.cwiseAbs2().asDiagonal();
   P_.bottomRightCorner<kStateDim - kBg, kStateDim - kBg>() =
       kept.bottomRightCorner<kStateDim - kBg, kStateDim - kBg>();
-  restart_local_map();
+  if (restart_map) {
+    restart_local_map();
+  }
 }
 
 void LidarInertialOdometry::restart_keeping_anchor(const Matrix6d& information, double reach_m) {

@@ -64,6 +64,10 @@ struct OdometryEstimate {
   // Not empty: after a restart the local map was found in the one before it and the pose
   // moved onto it (OdometryConfig::reanchor_after_s), by how much.
   std::string reanchored;
+  // Not empty: this sweep's registration contradicted the IMU's prediction (a bias step, a
+  // faulty or saturated IMU), which the LiDAR then outweighed
+  // (OdometryConfig::imu_consistency_nis): by how much. The estimate is still trusted.
+  std::string imu_disagreement;
   // Set on the one estimate where the LiDAR-IMU extrinsic check decided (its message
   // says what it found; `warn` when the configuration looks wrong).
   std::optional<ExtrinsicEstimate> extrinsic_check;
@@ -89,13 +93,14 @@ struct OdometryCounters {
   int64_t scans_without_imu = 0;   // processed past the last IMU sample (IMU late or gone)
   int64_t imu_gaps = 0;            // IMU silences longer than max_sample_gap_s
   int64_t degenerate_scans = 0;
-  int64_t searched_scans = 0;    // prediction beyond registration's reach: searched first
-  int64_t second_guesses = 0;    // of those, searched around a second guess too (no IMU)
-  int64_t map_restarts = 0;      // the local map restarted (a sweep placed nowhere, a reset)
-  int64_t health_resets = 0;     // implausible speed, acceleration or jump: state reset
-  int64_t reanchors = 0;         // after a restart, found again in the local map of before
-  int64_t lost_scans = 0;        // estimates with a lost_reason
-  int64_t standstill_scans = 0;  // zero-velocity updates applied
+  int64_t searched_scans = 0;     // prediction beyond registration's reach: searched first
+  int64_t second_guesses = 0;     // of those, searched around a second guess too (no IMU)
+  int64_t map_restarts = 0;       // the local map restarted (a sweep placed nowhere, a reset)
+  int64_t health_resets = 0;      // implausible speed, acceleration or jump: state reset
+  int64_t imu_disagreements = 0;  // the LiDAR contradicted the IMU's prediction: widened
+  int64_t reanchors = 0;          // after a restart, found again in the local map of before
+  int64_t lost_scans = 0;         // estimates with a lost_reason
+  int64_t standstill_scans = 0;   // zero-velocity updates applied
   int64_t keyframes = 0;
   int64_t corrections_applied = 0;
   int64_t corrections_rejected = 0;  // time outside the kept history, or non-finite

@@ -131,11 +131,11 @@ bool OdometryNode::finish() {
       "done: {} sweeps processed ({} received, {} out of order, {} too small, {} "
       "before init, {} without IMU, {} failed), {} keyframes, {} degenerate, {} searched after "
       "a pause ({} around a second guess), {} lost ({} local-map restarts, {} health resets, "
-      "{} found again); {} messages refused at the door, {} restarts",
+      "{} found again), {} contradicting the IMU; {} messages refused at the door, {} restarts",
       c.scans_processed, c.scans_received, c.scans_out_of_order, c.scans_too_small,
       c.scans_before_init, c.scans_without_imu, c.scans_failed, c.keyframes, c.degenerate_scans,
       c.searched_scans, c.second_guesses, c.lost_scans, c.map_restarts, c.health_resets,
-      c.reanchors, rejected_total_, restarts_);
+      c.reanchors, c.imu_disagreements, rejected_total_, restarts_);
   if (!extrinsic_check_.empty()) {
     spdlog::info("{}", extrinsic_check_);
   }
@@ -155,6 +155,13 @@ void OdometryNode::publish(const std::vector<OdometryEstimate>& estimates) {
       const int64_t lost = odometry_->counters().lost_scans;
       if (should_log(lost)) {  // the summary has the count
         spdlog::warn("lost ({} sweeps so far): {}", lost, e.lost_reason);
+      }
+    }
+    if (!e.imu_disagreement.empty()) {
+      last_problem_ = e.imu_disagreement;
+      if (should_log(odometry_->counters().imu_disagreements)) {
+        spdlog::warn("{} ({} sweeps so far)", e.imu_disagreement,
+                     odometry_->counters().imu_disagreements);
       }
     }
     if (!e.reanchored.empty()) {
@@ -224,6 +231,7 @@ void OdometryNode::publish_status(const OdometryEstimate* e, int64_t utime_us) {
                      {"second_guesses", c.second_guesses},
                      {"map_restarts", c.map_restarts},
                      {"health_resets", c.health_resets},
+                     {"imu_disagreements", c.imu_disagreements},
                      {"reanchors", c.reanchors},
                      {"lost_scans", c.lost_scans},
                      {"standstill_scans", c.standstill_scans},
@@ -248,6 +256,8 @@ void OdometryNode::publish_status(const OdometryEstimate* e, int64_t utime_us) {
     report.message = e->lost_reason;
   } else if (!e->reanchored.empty()) {
     report.message = e->reanchored;
+  } else if (!e->imu_disagreement.empty()) {
+    report.message = e->imu_disagreement;
   } else if (!e->registered) {
     report.message = "sweep too small to register: pose from the motion model";
   } else if (e->degenerate) {
