@@ -697,8 +697,8 @@ TEST(Odometry, AfterARestartTheNextSweepIsRegisteredToTheNewLocalMap) {
 
 // A shove no vehicle makes (1000 m/s^2 for 0.1 s, far past what the LiDAR can outweigh):
 // the speed check resets to the previous pose and the velocity from before the shove, in
-// the same local map, and the drive goes on. (With the previous sweep's velocity, the
-// shove's own, the estimate ran away again after every reset.)
+// the same local map, and the drive goes on. (The previous sweep's velocity, which the
+// reset used to restore, is the shove's own.)
 TEST(Odometry, AnImplausibleSpeedResetsToTheLastTrustedStateInTheSameMap) {
   const Recording& r = campus_drive();
   LidarInertialOdometry odometry(config_for(r, true));

@@ -908,6 +908,7 @@ void LidarInertialOdometry::move_local_frame(const Eigen::Isometry3d& T_old_new,
   x_.p = T_old_new * x_.p;
   x_.v = R * x_.v;
   x_.g = R * x_.g;
+  trusted_velocity_ = R * trusted_velocity_;
   // Pose errors are in the body frame and stay; velocity and gravity errors turn with the
   // frame (gravity's from the tangent plane at g_new to that at R g_new).
   StateMatrix J = StateMatrix::Identity();
