@@ -539,11 +539,9 @@ void LidarInertialOdometry::predict_and_deskew(Sweep& sweep, OdometryEstimate& e
 
 void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) {
   est.registered = true;
-  imu_distrusted_ = config_.use_imu && sweep.end_utime <= imu_distrusted_until_us_;
   if (map_.empty()) {
     return;  // the first sweep defines the map
   }
-  // Point-to-plane registration (Eq. 6) against the local map, the prediction as prior.
   PosePrior prior;
   prior.T_target_source = T_local_body();
   prior.information = P_.topLeftCorner<6, 6>().inverse();
@@ -584,16 +582,14 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
     }
     result = std::move(found.result);
   } else {
-    result = register_point_to_plane(
-        source, map_, prior.T_target_source, prior,
-        registration_config(std::min(reach_m, config_.correspondence_cap_m)),
-        T_body_lidar_.translation());
+    result = register_in_local_map(source, prior.T_target_source, prior,
+                                   std::min(reach_m, config_.correspondence_cap_m));
     result = outweigh_imu(sweep, source, prior, reach_m, std::move(result), est);
   }
   const Eigen::Vector3d p_predicted = x_.p;
   // Biases and gravity are considered (Schmidt) across a long gap and while the IMU is
   // distrusted: neither sweep tells them apart from the gap's or the fault's motion.
-  update(result, !long_gap && !imu_distrusted_);
+  update(result, !long_gap && !imu_distrusted(sweep));
   if (!config_.use_imu) {
     const Vector6d twist_predicted = twist_;
     update_twist(sweep);
@@ -610,11 +606,9 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
                                 b * twist_ + (1.0 - b) * twist_predicted);
       sweep.points_body =
           deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, sweep.motion, T_body_lidar_);
-      result = register_point_to_plane(
+      result = register_in_local_map(
           evenly_spaced(sweep.points_body, static_cast<size_t>(config_.max_registration_points)),
-          map_, T_local_body(), prior,
-          registration_config(config_.registration.max_correspondence_m),
-          T_body_lidar_.translation());
+          T_local_body(), prior, config_.registration.max_correspondence_m);
       x_.R = result.T_target_source.linear();
       x_.p = result.T_target_source.translation();
       update_twist(sweep);
@@ -651,9 +645,21 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
     reset_to(sweep, problem->local_map_suspect);
     // The velocity is now the last trusted one, not this sweep's: the next sweeps correct it.
     imu_distrusted_until_us_ = sweep.end_utime + to_us(config_.imu_distrust_hold_s);
-  } else if (!imu_distrusted_) {
+  } else if (!imu_distrusted(sweep)) {
     trusted_velocity_ = x_.v;
   }
+}
+
+RegistrationResult LidarInertialOdometry::register_in_local_map(
+    const std::vector<Eigen::Vector3f>& source, const Eigen::Isometry3d& T_local_body_guess,
+    const PosePrior& prior, double radius_m) const {
+  // Point-to-plane registration (Eq. 6) against the local map, the prediction as prior.
+  return register_point_to_plane(source, map_, T_local_body_guess, prior,
+                                 registration_config(radius_m), T_body_lidar_.translation());
+}
+
+bool LidarInertialOdometry::imu_distrusted(const Sweep& sweep) const {
+  return config_.use_imu && sweep.end_utime <= imu_distrusted_until_us_;
 }
 
 double LidarInertialOdometry::innovation_nis(const RegistrationResult& result) const {
@@ -679,10 +685,9 @@ RegistrationResult LidarInertialOdometry::outweigh_imu(const Sweep& sweep,
   const double nis = innovation_nis(result);
   if (nis > config_.imu_consistency_nis) {
     imu_distrusted_until_us_ = sweep.end_utime + to_us(config_.imu_distrust_hold_s);
-    imu_distrusted_ = true;
     ++counters_.imu_disagreements;
   }
-  if (!imu_distrusted_) {
+  if (!imu_distrusted(sweep)) {
     return result;
   }
   // The hold matters: within a fault some sweeps pass the test by chance (the registration
@@ -701,8 +706,7 @@ RegistrationResult LidarInertialOdometry::outweigh_imu(const Sweep& sweep,
     const double radius_m =
         std::min(std::max(prediction_reach_m(), reach_m), config_.correspondence_cap_m);
     RegistrationResult widened =
-        register_point_to_plane(source, map_, prior.T_target_source, prior,
-                                registration_config(radius_m), T_body_lidar_.translation());
+        register_in_local_map(source, prior.T_target_source, prior, radius_m);
     // Widened until the LiDAR, not the prior, places the sweep: the pose stops moving.
     const Vector6d moved = se3::minus(widened.T_target_source, result.T_target_source);
     result = std::move(widened);
@@ -754,7 +758,7 @@ std::optional<LidarInertialOdometry::HealthProblem> LidarInertialOdometry::healt
   if (speed > config_.max_speed_mps) {
     std::snprintf(text, sizeof(text), "speed %.1f m/s beyond max_speed_mps %.1f", speed,
                   config_.max_speed_mps);
-  } else if (config_.use_imu && accel > config_.max_accel_mps2 && !imu_distrusted_) {
+  } else if (config_.use_imu && accel > config_.max_accel_mps2 && !imu_distrusted(sweep)) {
     // (Without an IMU the velocity is a difference of poses 0.1 s apart, too noisy for this.)
     std::snprintf(text, sizeof(text),
                   "the velocity changed by %.1f m/s in %.2f s (%.0f m/s^2, beyond "

@@ -418,6 +418,14 @@ class LidarInertialOdometry {
   // Re-expresses the state, its covariance, the pose history from since_utime on and the
   // pose bookkeeping in another local frame.
   void move_local_frame(const Eigen::Isometry3d& T_old_new, int64_t since_utime);
+  // Registration of `source` (body frame) against the local map from the guess, with the
+  // association radius radius_m.
+  RegistrationResult register_in_local_map(const std::vector<Eigen::Vector3f>& source,
+                                           const Eigen::Isometry3d& T_local_body_guess,
+                                           const PosePrior& prior, double radius_m) const;
+  // With the IMU: the sweep ends within imu_distrust_hold_s of a sweep that contradicted
+  // the IMU, or of a reset; its prediction is then widened (outweigh_imu).
+  bool imu_distrusted(const Sweep& sweep) const;
   // The normalized innovation squared of a registration that had the prediction as its
   // prior: the LiDAR's own pose, recovered from the posterior, against the prediction.
   double innovation_nis(const RegistrationResult& result) const;
@@ -487,10 +495,9 @@ class LidarInertialOdometry {
   // Correspondences of the sweeps registered on the current local map while moving, with
   // their end times, over the last weak_fit_window_s (health_problem).
   std::deque<std::pair<int64_t, int>> recent_fits_;
-  // The IMU's prediction is widened for the sweeps ending up to here (outweigh_imu), and
-  // was for the last sweep.
+  // The IMU's prediction is widened for the sweeps ending up to here (outweigh_imu, and
+  // after a reset).
   int64_t imu_distrusted_until_us_ = std::numeric_limits<int64_t>::min();
-  bool imu_distrusted_ = false;
   // The velocity after the last sweep that agreed with the IMU and was healthy (reset_to).
   Eigen::Vector3d trusted_velocity_ = Eigen::Vector3d::Zero();
   std::optional<Anchor> anchor_;
