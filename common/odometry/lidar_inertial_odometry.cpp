@@ -38,6 +38,14 @@ decltype(auto) timed(double& ms, Step&& step) {
   }
 }
 
+// The upper median (values reordered).
+template <class T>
+T median(std::vector<T>& values) {
+  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
+}
+
 // One point per voxel (the first, so that it keeps its own time).
 std::vector<LidarPoint> first_per_voxel(const std::vector<LidarPoint>& points, float voxel_m) {
   VoxelIndexTable seen(points.size() / 4 + 1);
@@ -87,6 +95,12 @@ void OdometryConfig::validate() const {
   if (!(imu_consistency_nis >= 0) || imu_distrust_doublings < 0) {
     throw std::invalid_argument(
         "imu_consistency_nis (0: no check) and imu_distrust_doublings must be at least 0");
+  }
+  if (!(own_motion_inlier_gain >= 1) ||
+      !(fit_collapse_fraction >= 0 && fit_collapse_fraction < 1)) {
+    throw std::invalid_argument(
+        "own_motion_inlier_gain must be at least 1 and fit_collapse_fraction in [0, 1) (0: no "
+        "collapse check)");
   }
   if (weak_fit_correspondences < 0) {
     throw std::invalid_argument("weak_fit_correspondences must be at least 0 (0: no check)");
@@ -320,13 +334,19 @@ MotionProfile LidarInertialOdometry::constant_twist_motion(const Eigen::Isometry
   return motion;
 }
 
-void LidarInertialOdometry::update_twist(const Sweep& sweep) {
+Vector6d LidarInertialOdometry::measured_twist(const Sweep& sweep) const {
   // The velocity over the time since the previous sweep's end, which the prediction
   // covered: not the sweep's own duration (scans spaced irregularly, dropped sweeps).
   const Eigen::Isometry3d& T_prev = sweep.T_local_body_before;
   const double dt = std::max(sweep.gap_s(), 1e-3);
-  twist_.head<3>() = T_prev.linear().transpose() * (x_.p - T_prev.translation()) / dt;
-  twist_.tail<3>() = so3::log(T_prev.linear().transpose() * x_.R) / dt;
+  Vector6d twist;
+  twist.head<3>() = T_prev.linear().transpose() * (x_.p - T_prev.translation()) / dt;
+  twist.tail<3>() = so3::log(T_prev.linear().transpose() * x_.R) / dt;
+  return twist;
+}
+
+void LidarInertialOdometry::update_twist(const Sweep& sweep) {
+  twist_ = measured_twist(sweep);
   x_.v = x_.R * twist_.head<3>();
 }
 
@@ -390,8 +410,12 @@ void LidarInertialOdometry::predict(Sweep& sweep) {
 }
 
 double LidarInertialOdometry::prediction_reach_m() const {
-  const double sigma_p = std::sqrt(P_.block<3, 3>(kPos, kPos).diagonal().maxCoeff());
-  const double sigma_r = std::sqrt(P_.block<3, 3>(kRot, kRot).diagonal().maxCoeff());
+  return reach_of(P_.topLeftCorner<6, 6>());
+}
+
+double LidarInertialOdometry::reach_of(const Matrix6d& pose_covariance) const {
+  const double sigma_p = std::sqrt(pose_covariance.diagonal().segment<3>(kPos).maxCoeff());
+  const double sigma_r = std::sqrt(pose_covariance.diagonal().segment<3>(kRot).maxCoeff());
   return config_.correspondence_sigmas * (sigma_p + sigma_r * config_.correspondence_lever_m);
 }
 
@@ -581,6 +605,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
       return;
     }
     result = std::move(found.result);
+    est.inlier_ratio = found.inlier_ratio;
   } else {
     result = register_in_local_map(source, prior.T_target_source, prior,
                                    std::min(reach_m, config_.correspondence_cap_m));
@@ -590,7 +615,9 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
   // Biases and gravity are considered (Schmidt) across a long gap and while the IMU is
   // distrusted: neither sweep tells them apart from the gap's or the fault's motion.
   update(result, !long_gap && !imu_distrusted(sweep));
-  if (!config_.use_imu) {
+  if (config_.use_imu) {
+    twist_ = measured_twist(sweep);
+  } else {
     const Vector6d twist_predicted = twist_;
     update_twist(sweep);
     // (Not across a longer pause: the twist is then an average over the pause.)
@@ -635,7 +662,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
   }
   // A standing vehicle's sweeps, all from one viewpoint, match little and need not.
   if (!est.standing) {
-    recent_fits_.emplace_back(sweep.end_utime, result.correspondences);
+    recent_fits_.push_back({sweep.end_utime, result.correspondences, est.inlier_ratio});
   }
   if (const std::optional<HealthProblem> problem = health_problem(sweep, p_predicted)) {
     est.lost_reason = problem->reason + (problem->local_map_suspect
@@ -674,7 +701,7 @@ double LidarInertialOdometry::innovation_nis(const RegistrationResult& result) c
   return y.dot(P_pp * y) + y.dot(H.ldlt().solve(y));
 }
 
-RegistrationResult LidarInertialOdometry::outweigh_imu(const Sweep& sweep,
+RegistrationResult LidarInertialOdometry::outweigh_imu(Sweep& sweep,
                                                        const std::vector<Eigen::Vector3f>& source,
                                                        PosePrior prior, double reach_m,
                                                        RegistrationResult result,
@@ -683,11 +710,16 @@ RegistrationResult LidarInertialOdometry::outweigh_imu(const Sweep& sweep,
     return result;
   }
   const double nis = innovation_nis(result);
-  if (nis > config_.imu_consistency_nis) {
+  const bool contradicted = nis > config_.imu_consistency_nis;
+  if (contradicted) {
     imu_distrusted_until_us_ = sweep.end_utime + to_us(config_.imu_distrust_hold_s);
-    ++counters_.imu_disagreements;
   }
-  if (!imu_distrusted(sweep)) {
+  // A prediction off by degrees leaves registration stuck near where it started, with a
+  // small innovation (gyro +1 rad/s, HDL-32E: NIS 7; +5 rad/s: 13) but a fraction of the
+  // usual points on the map (0.32 against 0.73).
+  est.inlier_ratio = inlier_ratio(result.T_target_source, source);
+  const bool collapsed = fit_collapsed(sweep.end_utime, est.inlier_ratio);
+  if (!imu_distrusted(sweep) && !collapsed) {
     return result;
   }
   // The hold matters: within a fault some sweeps pass the test by chance (the registration
@@ -697,16 +729,16 @@ RegistrationResult LidarInertialOdometry::outweigh_imu(const Sweep& sweep,
   const StateMatrix P_predicted = P_;
   double accel = 0.0;
   double gyro = 0.0;
-  for (int k = 0; k <= config_.imu_distrust_doublings; ++k) {
+  // (A collapsed fit alone widens nothing: it only asks the LiDAR's own motion, below.)
+  for (int k = 0; imu_distrusted(sweep) && k <= config_.imu_distrust_doublings; ++k) {
     accel = std::ldexp(config_.imu_distrust_accel_mps2, k);
     gyro = std::ldexp(config_.imu_distrust_gyro_rps, k);
     P_ = P_predicted;
     widen_prediction(accel, gyro, dt_s);
     prior.information = P_.topLeftCorner<6, 6>().inverse();
-    const double radius_m =
-        std::min(std::max(prediction_reach_m(), reach_m), config_.correspondence_cap_m);
-    RegistrationResult widened =
-        register_in_local_map(source, prior.T_target_source, prior, radius_m);
+    RegistrationResult widened = register_in_local_map(
+        source, prior.T_target_source, prior,
+        std::min(std::max(prediction_reach_m(), reach_m), config_.correspondence_cap_m));
     // Widened until the LiDAR, not the prior, places the sweep: the pose stops moving.
     const Vector6d moved = se3::minus(widened.T_target_source, result.T_target_source);
     result = std::move(widened);
@@ -715,7 +747,36 @@ RegistrationResult LidarInertialOdometry::outweigh_imu(const Sweep& sweep,
       break;
     }
   }
-  if (nis > config_.imu_consistency_nis) {
+  est.inlier_ratio = inlier_ratio(result.T_target_source, source);
+  // (Taken only where it fits as a sweep must: garbage from the LiDAR fits no motion.)
+  if (OwnMotion own = register_own_motion(sweep, reach_m);
+      own.inlier_ratio > config_.own_motion_inlier_gain * est.inlier_ratio &&
+      own.inlier_ratio >= config_.search_min_inlier_ratio) {
+    // The filter's rotation and velocity must be free to follow: the update takes the pose
+    // as registered, the velocity through the widened correlations.
+    const double off_rad =
+        se3::rotation_angle(T_local_body().inverse() * own.result.T_target_source);
+    accel = std::max(accel, config_.imu_distrust_accel_mps2);
+    gyro = std::max(gyro, off_rad / dt_s);
+    P_ = P_predicted;
+    widen_prediction(accel, gyro, dt_s);
+    imu_distrusted_until_us_ = sweep.end_utime + to_us(config_.imu_distrust_hold_s);
+    ++counters_.imu_disagreements;
+    char text[240];
+    std::snprintf(text, sizeof(text),
+                  "the sweep fits the LiDAR's own motion better than the IMU's (%.0f %% against "
+                  "%.0f %% of its points within %.2f m of the map): the IMU's rotation over "
+                  "the sweep is off by %.1f deg (a gyro fault?); following the LiDAR",
+                  100.0 * own.inlier_ratio, 100.0 * est.inlier_ratio, config_.search_inlier_m,
+                  off_rad * so3::kRadToDeg);
+    est.imu_disagreement = text;
+    est.inlier_ratio = own.inlier_ratio;
+    sweep.motion = std::move(own.motion);
+    sweep.points_body = std::move(own.points_body);
+    return std::move(own.result);
+  }
+  if (contradicted) {
+    ++counters_.imu_disagreements;
     char text[240];
     std::snprintf(
         text, sizeof(text),
@@ -729,6 +790,58 @@ RegistrationResult LidarInertialOdometry::outweigh_imu(const Sweep& sweep,
     est.imu_disagreement = text;
   }
   return result;
+}
+
+LidarInertialOdometry::OwnMotion LidarInertialOdometry::register_own_motion(const Sweep& sweep,
+                                                                            double reach_m) const {
+  OwnMotion own;
+  own.motion =
+      constant_twist_motion(sweep.T_local_body_before, sweep.utime_before, sweep.end_utime, twist_);
+  own.points_body =
+      deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, own.motion, T_body_lidar_);
+  const std::vector<Eigen::Vector3f> source =
+      evenly_spaced(own.points_body, static_cast<size_t>(config_.max_registration_points));
+  // The prior of a LiDAR-only prediction over the interval, around the twist's pose.
+  const double dt_s = std::max(sweep.gap_s(), 1e-3);
+  Matrix6d covariance = P_.topLeftCorner<6, 6>();
+  covariance.diagonal().head<3>().array() +=
+      std::pow(config_.motion_translation_sigma_mps * dt_s, 2);
+  covariance.diagonal().tail<3>().array() += std::pow(config_.motion_rotation_sigma_rps * dt_s, 2);
+  const MotionSample& end = own.motion.samples().back();
+  const PosePrior prior{se3::make(end.R, end.p), covariance.inverse()};
+  own.result = register_in_local_map(
+      source, prior.T_target_source, prior,
+      std::min(std::max(reach_of(covariance), reach_m), config_.correspondence_cap_m));
+  own.inlier_ratio = inlier_ratio(own.result.T_target_source, source);
+  return own;
+}
+
+bool LidarInertialOdometry::fit_collapsed(int64_t now_us, double inlier_ratio) const {
+  std::vector<double> ratios;
+  for (const RecentFit& fit : recent_fits_) {
+    if (now_us - fit.utime_us <= to_us(config_.weak_fit_window_s)) {
+      ratios.push_back(fit.inlier_ratio);
+    }
+  }
+  return ratios.size() >= 10 && inlier_ratio < config_.fit_collapse_fraction * median(ratios);
+}
+
+double LidarInertialOdometry::inlier_ratio(const Eigen::Isometry3d& T_local_body,
+                                           const std::vector<Eigen::Vector3f>& source) const {
+  return source.empty() ? 0.0
+                        : inliers(map_, T_local_body, source) / static_cast<double>(source.size());
+}
+
+int LidarInertialOdometry::inliers(const VoxelHashMap& target,
+                                   const Eigen::Isometry3d& T_target_body,
+                                   const std::vector<Eigen::Vector3f>& source) const {
+  const Eigen::Isometry3f T = T_target_body.cast<float>();
+  const auto radius = static_cast<float>(config_.search_inlier_m);
+  int count = 0;
+  for (const Eigen::Vector3f& p : source) {
+    count += target.nearest<1>(T * p, radius).count > 0;
+  }
+  return count;
 }
 
 void LidarInertialOdometry::widen_prediction(double accel_mps2, double gyro_rps, double dt_s) {
@@ -786,8 +899,8 @@ std::optional<LidarInertialOdometry::HealthProblem> LidarInertialOdometry::healt
 std::optional<int> LidarInertialOdometry::weak_fit_median(int64_t now_us) {
   const auto window_us = static_cast<int64_t>(config_.weak_fit_window_s * 1e6);
   // The window must lie on the current local map: a new one matches little at first.
-  const bool full = !recent_fits_.empty() && now_us - recent_fits_.front().first >= window_us;
-  while (!recent_fits_.empty() && now_us - recent_fits_.front().first > window_us) {
+  const bool full = !recent_fits_.empty() && now_us - recent_fits_.front().utime_us >= window_us;
+  while (!recent_fits_.empty() && now_us - recent_fits_.front().utime_us > window_us) {
     recent_fits_.pop_front();
   }
   // And hold enough sweeps for a median: after a pause of seconds it may hold one.
@@ -797,15 +910,13 @@ std::optional<int> LidarInertialOdometry::weak_fit_median(int64_t now_us) {
   }
   std::vector<int> counts;
   counts.reserve(recent_fits_.size());
-  for (const auto& [utime_us, correspondences] : recent_fits_) {
-    counts.push_back(correspondences);
+  for (const RecentFit& fit : recent_fits_) {
+    counts.push_back(fit.correspondences);
   }
-  const auto middle = counts.begin() + static_cast<std::ptrdiff_t>(counts.size() / 2);
-  std::nth_element(counts.begin(), middle, counts.end());
-  if (*middle >= config_.weak_fit_correspondences) {
-    return std::nullopt;
+  if (const int m = median(counts); m < config_.weak_fit_correspondences) {
+    return m;
   }
-  return *middle;
+  return std::nullopt;
 }
 
 void LidarInertialOdometry::reset_to(const Sweep& sweep, bool restart_map) {
@@ -946,18 +1057,10 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
   // Wider windows in coarser cells: at most 21 x 21 shifts per yaw.
   CorrelativeSearchConfig search = config_.search;
   search.cell_m = std::max(search.cell_m, half_xy_m / 10.0);
-  // Scored by the points that land within search_inlier_m of a map point: along a street,
-  // a start shifted by a metre finds as many planes (its walls) but not its poles and
-  // corners.
-  const auto inliers = [&](const Eigen::Isometry3d& T, const std::vector<Eigen::Vector3f>& points) {
-    const Eigen::Isometry3f Tf = T.cast<float>();
-    const float radius = static_cast<float>(config_.search_inlier_m);
-    int count = 0;
-    for (const Eigen::Vector3f& p : points) {
-      count += target.nearest<1>(Tf * p, radius).count > 0;
-    }
-    return count;
-  };
+  // Scored by the points that land within search_inlier_m of a map point (inliers): along a
+  // street, a start shifted by a metre finds as many planes (its walls) but not its poles
+  // and corners.
+  //
   // The search is level (x, y, yaw at the predicted height): over a pause of seconds on
   // rolling ground the predicted height is off by metres (the pre-pause velocity carried up
   // or down a slope), beyond what registration's radius reaches, and a sweep registered a
@@ -972,7 +1075,7 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
     double best_dz = 0.0;
     for (double dz = -max_dz; dz <= max_dz + 1e-9; dz += config_.search_inlier_m) {
       T.translation() = start + Eigen::Vector3d(0.0, 0.0, dz);
-      const int n = inliers(T, probe);
+      const int n = inliers(target, T, probe);
       if (n > best || (n == best && std::abs(dz) < std::abs(best_dz))) {
         best = n;
         best_dz = dz;
@@ -1013,7 +1116,7 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
     for (const Eigen::Isometry3d& start : starts) {
       RegistrationResult r = register_point_to_plane(source, target, start, guess, refine,
                                                      T_body_lidar_.translation());
-      const int n = inliers(r.T_target_source, source);
+      const int n = inliers(target, r.T_target_source, source);
       const Vector6d delta = se3::minus(r.T_target_source, guess.T_target_source);
       answers.push_back({std::move(r), n, std::exp(-0.5 * delta.dot(guess.information * delta))});
     }

@@ -177,6 +177,16 @@ struct OdometryConfig {
   double imu_distrust_settled_m = 0.02;
   double imu_distrust_settled_rad = 0.002;
   double imu_distrust_hold_s = 0.5;
+  // A rate fault also smears the sweep: deskewed with a rotation wrong by degrees, no pose
+  // fits it, and registration stays near the wrong prediction with a small innovation
+  // (gyro +1 rad/s for 1 s: 19 m in silence). So while the IMU is distrusted, and where a
+  // sweep's inlier ratio (its share of points within search_inlier_m of the map) fell
+  // below fit_collapse_fraction of the recent median, the sweep is also deskewed and
+  // predicted with the LiDAR's own last twist; that hypothesis is taken when its inlier
+  // ratio is own_motion_inlier_gain times the IMU's and at least search_min_inlier_ratio,
+  // and the IMU then stays distrusted. fit_collapse_fraction 0: no collapse check.
+  double own_motion_inlier_gain = 1.2;
+  double fit_collapse_fraction = 0.5;
   // Health: an estimate faster than max_speed_mps or, with the IMU, whose velocity changed
   // faster than max_accel_mps2 over a sweep (not while the IMU is distrusted: the LiDAR
   // then corrects the velocity by metres per second) or that registration moved more than
@@ -270,6 +280,8 @@ struct OdometryConfig {
     v("imu_distrust_settled_m", imu_distrust_settled_m);
     v("imu_distrust_settled_rad", imu_distrust_settled_rad);
     v("imu_distrust_hold_s", imu_distrust_hold_s);
+    v("own_motion_inlier_gain", own_motion_inlier_gain);
+    v("fit_collapse_fraction", fit_collapse_fraction);
     v("max_speed_mps", max_speed_mps);
     v("max_accel_mps2", max_accel_mps2);
     v("max_jump_m", max_jump_m);
@@ -363,7 +375,9 @@ class LidarInertialOdometry {
   // The body's motion at a constant body-frame twist (linear m/s, angular rad/s).
   static MotionProfile constant_twist_motion(const Eigen::Isometry3d& T_start, int64_t t0_us,
                                              int64_t t1_us, const Vector6d& twist);
-  // Without an IMU: the twist from the previous sweep's end to the current state.
+  // The twist from the previous sweep's end to the current state (body frame).
+  Vector6d measured_twist(const Sweep& sweep) const;
+  // Without an IMU: twist_ from measured_twist, and the velocity from it.
   void update_twist(const Sweep& sweep);
   // The body-frame velocity averaged over the pose history's last second_guess_window_s
   // (none if it holds fewer than two poses there).
@@ -380,6 +394,8 @@ class LidarInertialOdometry {
   // How far the prediction may be off at a point correspondence_lever_m away, at
   // correspondence_sigmas.
   double prediction_reach_m() const;
+  // The same for a pose covariance (translation, rotation).
+  double reach_of(const Matrix6d& pose_covariance) const;
   // Registration from the starts of correlative searches around each guess (within
   // reach_m, prediction_reach_m(); each guess is the prior of its starts' refinement): the
   // answer with the most points within search_inlier_m of the map, and how well it is
@@ -431,10 +447,30 @@ class LidarInertialOdometry {
   double innovation_nis(const RegistrationResult& result) const;
   // With the IMU: where the registration contradicts the prediction (imu_consistency_nis),
   // or within imu_distrust_hold_s of such a sweep, registers again from a widened
-  // prediction; est.imu_disagreement says by how much.
-  RegistrationResult outweigh_imu(const Sweep& sweep, const std::vector<Eigen::Vector3f>& source,
+  // prediction; there and where the fit collapsed (fit_collapse_fraction) the sweep's own
+  // motion (register_own_motion) replaces the sweep and its result if it fits better.
+  // est.imu_disagreement says by how much.
+  RegistrationResult outweigh_imu(Sweep& sweep, const std::vector<Eigen::Vector3f>& source,
                                   PosePrior prior, double reach_m, RegistrationResult result,
                                   OdometryEstimate& est);
+  // The sweep deskewed, predicted and registered with the LiDAR's own last twist (twist_)
+  // and a LiDAR-only prediction's spread: the hypothesis that the IMU's motion is wrong.
+  struct OwnMotion {
+    MotionProfile motion;
+    std::vector<Eigen::Vector3f> points_body;
+    RegistrationResult result;
+    double inlier_ratio = 0.0;  // of the registered points, within search_inlier_m of the map
+  };
+  OwnMotion register_own_motion(const Sweep& sweep, double reach_m) const;
+  // With the IMU: a sweep's inlier ratio below fit_collapse_fraction of the median over the
+  // last weak_fit_window_s (at least 10 sweeps).
+  bool fit_collapsed(int64_t now_us, double inlier_ratio) const;
+  // The share of `source` (body frame) within search_inlier_m of the local map at the pose.
+  double inlier_ratio(const Eigen::Isometry3d& T_local_body,
+                      const std::vector<Eigen::Vector3f>& source) const;
+  // Points of `source` (body frame) within search_inlier_m of a map point at pose T.
+  int inliers(const VoxelHashMap& target, const Eigen::Isometry3d& T_target_body,
+              const std::vector<Eigen::Vector3f>& source) const;
   // Adds to the predicted covariance what an acceleration and an angular rate uncertain by
   // accel_mps2 and gyro_rps over dt_s leave in the pose and velocity.
   void widen_prediction(double accel_mps2, double gyro_rps, double dt_s);
@@ -477,7 +513,8 @@ class LidarInertialOdometry {
   int64_t last_registered_utime_ = 0;
   NavState x_;
   StateMatrix P_ = StateMatrix::Identity();
-  // LiDAR-only: the twist of the last sweep-to-sweep motion (body frame).
+  // The twist of the last sweep-to-sweep motion (body frame): the LiDAR-only prediction,
+  // and with the IMU the motion that a distrusted IMU is checked against.
   Vector6d twist_ = Vector6d::Zero();
   Eigen::Vector3d last_omega_ = Eigen::Vector3d::Zero();
 
@@ -492,9 +529,15 @@ class LidarInertialOdometry {
   int64_t next_keyframe_id_ = 0;
   int64_t sweeps_since_cleanup_ = 0;
   int64_t degenerate_since_us_ = std::numeric_limits<int64_t>::max();  // the streak's start
-  // Correspondences of the sweeps registered on the current local map while moving, with
-  // their end times, over the last weak_fit_window_s (health_problem).
-  std::deque<std::pair<int64_t, int>> recent_fits_;
+  // Correspondences and inlier ratios of the sweeps registered on the current local map
+  // while moving, with their end times, over the last weak_fit_window_s (health_problem,
+  // fit_collapsed).
+  struct RecentFit {
+    int64_t utime_us = 0;
+    int correspondences = 0;
+    double inlier_ratio = 0.0;  // with the IMU (OdometryEstimate::inlier_ratio)
+  };
+  std::deque<RecentFit> recent_fits_;
   // The IMU's prediction is widened for the sweeps ending up to here (outweigh_imu, and
   // after a reset).
   int64_t imu_distrusted_until_us_ = std::numeric_limits<int64_t>::min();

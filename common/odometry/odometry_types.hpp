@@ -54,6 +54,10 @@ struct OdometryEstimate {
   bool standing = false;    // the IMU saw the vehicle standing; velocity 0 was applied
   double fitness_m = 0.0;   // RMS point-to-plane residual
   int correspondences = 0;
+  // The share of the registered points within search_inlier_m of the local map, where
+  // computed: with the IMU every sweep (OdometryConfig::fit_collapse_fraction), and every
+  // searched sweep; 0 elsewhere.
+  double inlier_ratio = 0.0;
   bool degenerate = false;
   double translation_eigen_ratio = 0.0;
   double rotation_eigen_ratio = 0.0;
