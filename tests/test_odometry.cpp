@@ -783,6 +783,28 @@ TEST(Odometry, AGyroFaultIsFoundByTheLidarsOwnMotion) {
   EXPECT_LT(run.metrics(r).ate_position_rmse_m, 0.1);
 }
 
+// A gyro that stays wrong by 1 rad/s: the LiDAR's own motion carries the drive until the
+// next corner, where it lags as the IMU is off and neither fits. Before, the estimate then
+// drifted at 10 m/s in silence (104 m): the sweeps still matched 50-100 planes, above the
+// weak-fit floor, but put only 13-16 % of their points on the map. Now it says it is lost.
+TEST(Odometry, AGyroWrongForGoodIsReportedLost) {
+  const Recording& r = campus_drive();
+  LidarInertialOdometry odometry(config_for(r, true));
+  const double t0_s = r.config.start_utime * 1e-6;
+  const Replayed run = replay_with_imu_fault(r, odometry, [](double t, ImuSample& imu) {
+    if (t > 30.0) {
+      imu.gyro_rps.z() += 1.0;
+    }
+  });
+  const auto lost = std::find_if(run.estimates.begin(), run.estimates.end(),
+                                 [](const OdometryEstimate& e) { return !e.lost_reason.empty(); });
+  ASSERT_NE(lost, run.estimates.end());
+  EXPECT_LT(lost->utime_us * 1e-6, t0_s + 36.0) << lost->lost_reason;
+  EXPECT_NE(lost->lost_reason.find("weak_fit_inlier_ratio"), std::string::npos)
+      << lost->lost_reason;
+  EXPECT_GE(odometry.counters().health_resets, 1);
+}
+
 // A LiDAR whose driver for six seconds decodes garbage (points scattered through the air
 // above the scene) leaves the IMU to carry the estimate with no plane to check it against: once the
 // median sweep over weak_fit_window_s matched fewer than weak_fit_correspondences planes,

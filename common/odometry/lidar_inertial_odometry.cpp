@@ -102,8 +102,10 @@ void OdometryConfig::validate() const {
         "own_motion_inlier_gain must be at least 1 and fit_collapse_fraction in [0, 1) (0: no "
         "collapse check)");
   }
-  if (weak_fit_correspondences < 0) {
-    throw std::invalid_argument("weak_fit_correspondences must be at least 0 (0: no check)");
+  if (weak_fit_correspondences < 0 || !(weak_fit_inlier_ratio >= 0 && weak_fit_inlier_ratio < 1)) {
+    throw std::invalid_argument(
+        "weak_fit_correspondences must be at least 0 and weak_fit_inlier_ratio in [0, 1) (0: "
+        "no check)");
   }
   search.validate();
   extrinsic_check.validate();
@@ -883,12 +885,22 @@ std::optional<LidarInertialOdometry::HealthProblem> LidarInertialOdometry::healt
                   "the registration moved the pose %.1f m from the IMU's prediction (beyond "
                   "max_jump_m %.1f)",
                   jump, config_.max_jump_m);
-  } else if (const std::optional<int> matches = weak_fit_median(sweep.end_utime)) {
+  } else if (const std::optional<WindowFit> fit = window_fit(sweep.end_utime);
+             fit && fit->correspondences < config_.weak_fit_correspondences) {
     std::snprintf(text, sizeof(text),
                   "for %.1f s the sweeps matched a median of %d planes of the local map "
                   "(fewer than weak_fit_correspondences %d): it no longer fits what the "
                   "LiDAR sees",
-                  config_.weak_fit_window_s, *matches, config_.weak_fit_correspondences);
+                  config_.weak_fit_window_s, fit->correspondences,
+                  config_.weak_fit_correspondences);
+    local_map_suspect = true;
+  } else if (fit && config_.use_imu && fit->inlier_ratio < config_.weak_fit_inlier_ratio) {
+    std::snprintf(text, sizeof(text),
+                  "for %.1f s the sweeps put a median of %.0f %% of their points within "
+                  "%.2f m of the local map (below weak_fit_inlier_ratio %.0f %%): neither "
+                  "the IMU's motion nor the LiDAR's own fits them (an IMU fault?)",
+                  config_.weak_fit_window_s, 100.0 * fit->inlier_ratio, config_.search_inlier_m,
+                  100.0 * config_.weak_fit_inlier_ratio);
     local_map_suspect = true;
   } else {
     return std::nullopt;
@@ -896,7 +908,7 @@ std::optional<LidarInertialOdometry::HealthProblem> LidarInertialOdometry::healt
   return HealthProblem{text, local_map_suspect};
 }
 
-std::optional<int> LidarInertialOdometry::weak_fit_median(int64_t now_us) {
+std::optional<LidarInertialOdometry::WindowFit> LidarInertialOdometry::window_fit(int64_t now_us) {
   const auto window_us = static_cast<int64_t>(config_.weak_fit_window_s * 1e6);
   // The window must lie on the current local map: a new one matches little at first.
   const bool full = !recent_fits_.empty() && now_us - recent_fits_.front().utime_us >= window_us;
@@ -905,18 +917,16 @@ std::optional<int> LidarInertialOdometry::weak_fit_median(int64_t now_us) {
   }
   // And hold enough sweeps for a median: after a pause of seconds it may hold one.
   constexpr size_t kMinSweeps = 10;
-  if (!full || recent_fits_.size() < kMinSweeps || config_.weak_fit_correspondences == 0) {
+  if (!full || recent_fits_.size() < kMinSweeps) {
     return std::nullopt;
   }
   std::vector<int> counts;
-  counts.reserve(recent_fits_.size());
+  std::vector<double> ratios;
   for (const RecentFit& fit : recent_fits_) {
     counts.push_back(fit.correspondences);
+    ratios.push_back(fit.inlier_ratio);
   }
-  if (const int m = median(counts); m < config_.weak_fit_correspondences) {
-    return m;
-  }
-  return std::nullopt;
+  return WindowFit{median(counts), median(ratios)};
 }
 
 void LidarInertialOdometry::reset_to(const Sweep& sweep, bool restart_map) {

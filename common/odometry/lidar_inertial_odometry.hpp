@@ -204,8 +204,14 @@ struct OdometryConfig {
   // IMU that left a 3.9 s gap 0.4 m short drifted 700 m this way at 10-20 matches a sweep;
   // healthy runs keep a median of 130 or more, and 32 at the start, before the local map
   // fills (docs/odometry.md).
+  // With the IMU, also lost when that window's median inlier ratio (OdometryEstimate::
+  // inlier_ratio) stayed below weak_fit_inlier_ratio: the sweeps match planes but not the
+  // map's points, as when a gyro stays wrong by 1 rad/s and neither its motion nor the
+  // LiDAR's own fits (0.13-0.16, 104 m in silence); healthy runs keep 0.46 or more. 0: no
+  // such check.
   double weak_fit_window_s = 3.0;
   int weak_fit_correspondences = 20;
+  double weak_fit_inlier_ratio = 0.3;
   CorrelativeSearchConfig search;
   // Pose corrections are blended in: this fraction of what remains per sweep, at most
   // the step limits, so that the output never jumps.
@@ -287,6 +293,7 @@ struct OdometryConfig {
     v("max_jump_m", max_jump_m);
     v("weak_fit_window_s", weak_fit_window_s);
     v("weak_fit_correspondences", weak_fit_correspondences);
+    v("weak_fit_inlier_ratio", weak_fit_inlier_ratio);
     v("search", search);
     v("correction_blend", correction_blend);
     v("correction_max_step_m", correction_max_step_m);
@@ -482,10 +489,13 @@ class LidarInertialOdometry {
   // before the update was p_predicted.
   std::optional<HealthProblem> health_problem(const Sweep& sweep,
                                               const Eigen::Vector3d& p_predicted);
-  // The median correspondences of the sweeps over the last weak_fit_window_s if below
-  // weak_fit_correspondences, that window lies on the current local map and holds at
-  // least 10 sweeps; drops older entries of recent_fits_.
-  std::optional<int> weak_fit_median(int64_t now_us);
+  // The medians of the sweeps over the last weak_fit_window_s, if that window lies on the
+  // current local map and holds at least 10 sweeps; drops older entries of recent_fits_.
+  struct WindowFit {
+    int correspondences = 0;
+    double inlier_ratio = 0.0;
+  };
+  std::optional<WindowFit> window_fit(int64_t now_us);
   // Back to the sweep's starting pose with the last trusted velocity (health_problem), and
   // a new local map if restart_map.
   void reset_to(const Sweep& sweep, bool restart_map);
