@@ -708,7 +708,15 @@ RegistrationResult LidarInertialOdometry::outweigh_imu(Sweep& sweep,
                                                        PosePrior prior, double reach_m,
                                                        RegistrationResult result,
                                                        OdometryEstimate& est) {
-  if (!config_.use_imu || config_.imu_consistency_nis == 0.0) {
+  if (!config_.use_imu) {
+    return result;
+  }
+  // A prediction off by degrees leaves registration stuck near where it started, with a
+  // small innovation (gyro +1 rad/s, HDL-32E: NIS 7; +5 rad/s: 13) but a fraction of the
+  // usual points on the map (0.32 against 0.73). (Also without the test below: the health
+  // check weak_fit_inlier_ratio reads it.)
+  est.inlier_ratio = inlier_ratio(result.T_target_source, source);
+  if (config_.imu_consistency_nis == 0.0) {
     return result;
   }
   const double nis = innovation_nis(result);
@@ -716,10 +724,6 @@ RegistrationResult LidarInertialOdometry::outweigh_imu(Sweep& sweep,
   if (contradicted) {
     imu_distrusted_until_us_ = sweep.end_utime + to_us(config_.imu_distrust_hold_s);
   }
-  // A prediction off by degrees leaves registration stuck near where it started, with a
-  // small innovation (gyro +1 rad/s, HDL-32E: NIS 7; +5 rad/s: 13) but a fraction of the
-  // usual points on the map (0.32 against 0.73).
-  est.inlier_ratio = inlier_ratio(result.T_target_source, source);
   const bool collapsed = fit_collapsed(sweep.end_utime, est.inlier_ratio);
   if (!imu_distrusted(sweep) && !collapsed) {
     return result;
