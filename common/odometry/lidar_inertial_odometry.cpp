@@ -402,13 +402,22 @@ void LidarInertialOdometry::predict(Sweep& sweep) {
     x_.R = end.R;
     x_.p = end.p;
     x_.v = end.v;
-    P_.block<3, 3>(kRot, kRot).diagonal().array() +=
-        std::pow(config_.motion_rotation_sigma_rps * dt, 2);
-    P_.block<3, 3>(kPos, kPos).diagonal().array() +=
-        std::pow(config_.motion_translation_sigma_mps * dt, 2);
+    P_.topLeftCorner<6, 6>().diagonal() += constant_velocity_variance(dt);
     last_omega_ = twist_.tail<3>();
   }
   state_utime_ = end_utime;
+}
+
+std::vector<Eigen::Vector3f> LidarInertialOdometry::registration_points(
+    const std::vector<Eigen::Vector3f>& points) const {
+  return evenly_spaced(points, static_cast<size_t>(config_.max_registration_points));
+}
+
+Vector6d LidarInertialOdometry::constant_velocity_variance(double dt_s) const {
+  Vector6d variance;
+  variance.segment<3>(kPos).setConstant(std::pow(config_.motion_translation_sigma_mps * dt_s, 2));
+  variance.segment<3>(kRot).setConstant(std::pow(config_.motion_rotation_sigma_rps * dt_s, 2));
+  return variance;
 }
 
 double LidarInertialOdometry::prediction_reach_m() const {
@@ -571,8 +580,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
   PosePrior prior;
   prior.T_target_source = T_local_body();
   prior.information = P_.topLeftCorner<6, 6>().inverse();
-  const std::vector<Eigen::Vector3f> source =
-      evenly_spaced(sweep.points_body, static_cast<size_t>(config_.max_registration_points));
+  const std::vector<Eigen::Vector3f> source = registration_points(sweep.points_body);
   RegistrationResult result;
   const bool long_gap = config_.use_imu && sweep.unregistered_s() > config_.long_gap_s;
   const double reach_m = std::max(prediction_reach_m(), long_gap ? config_.long_gap_search_m : 0.0);
@@ -635,9 +643,8 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
                                 b * twist_ + (1.0 - b) * twist_predicted);
       sweep.points_body =
           deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, sweep.motion, T_body_lidar_);
-      result = register_in_local_map(
-          evenly_spaced(sweep.points_body, static_cast<size_t>(config_.max_registration_points)),
-          T_local_body(), prior, config_.registration.max_correspondence_m);
+      result = register_in_local_map(registration_points(sweep.points_body), T_local_body(), prior,
+                                     config_.registration.max_correspondence_m);
       x_.R = result.T_target_source.linear();
       x_.p = result.T_target_source.translation();
       update_twist(sweep);
@@ -805,14 +812,11 @@ LidarInertialOdometry::OwnMotion LidarInertialOdometry::register_own_motion(cons
       constant_twist_motion(sweep.T_local_body_before, sweep.utime_before, sweep.end_utime, twist_);
   own.points_body =
       deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, own.motion, T_body_lidar_);
-  const std::vector<Eigen::Vector3f> source =
-      evenly_spaced(own.points_body, static_cast<size_t>(config_.max_registration_points));
+  const std::vector<Eigen::Vector3f> source = registration_points(own.points_body);
   // The prior of a LiDAR-only prediction over the interval, around the twist's pose.
   const double dt_s = std::max(sweep.gap_s(), 1e-3);
   Matrix6d covariance = P_.topLeftCorner<6, 6>();
-  covariance.diagonal().head<3>().array() +=
-      std::pow(config_.motion_translation_sigma_mps * dt_s, 2);
-  covariance.diagonal().tail<3>().array() += std::pow(config_.motion_rotation_sigma_rps * dt_s, 2);
+  covariance.diagonal() += constant_velocity_variance(dt_s);
   const MotionSample& end = own.motion.samples().back();
   const PosePrior prior{se3::make(end.R, end.p), covariance.inverse()};
   own.result = register_in_local_map(
@@ -991,8 +995,7 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
   // The whole new local map, in the body frame, is the "sweep" searched for.
   const std::vector<Eigen::Vector3f> new_map_points = map_.points();
   const Eigen::Isometry3f T_body_local = T_local_body().inverse().cast<float>();
-  std::vector<Eigen::Vector3f> source =
-      evenly_spaced(new_map_points, static_cast<size_t>(config_.max_registration_points));
+  std::vector<Eigen::Vector3f> source = registration_points(new_map_points);
   for (Eigen::Vector3f& p : source) {
     p = T_body_local * p;
   }

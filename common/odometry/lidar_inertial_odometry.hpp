@@ -403,6 +403,12 @@ class LidarInertialOdometry {
   double prediction_reach_m() const;
   // The same for a pose covariance (translation, rotation).
   double reach_of(const Matrix6d& pose_covariance) const;
+  // What the constant-velocity model leaves uncertain in the pose over dt_s (variances,
+  // translation then rotation): the LiDAR-only prediction's process noise.
+  Vector6d constant_velocity_variance(double dt_s) const;
+  // At most max_registration_points of them, evenly spaced.
+  std::vector<Eigen::Vector3f> registration_points(
+      const std::vector<Eigen::Vector3f>& points) const;
   // Registration from the starts of correlative searches around each guess (within
   // reach_m, prediction_reach_m(); each guess is the prior of its starts' refinement): the
   // answer with the most points within search_inlier_m of the map, and how well it is
