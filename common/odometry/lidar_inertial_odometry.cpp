@@ -140,6 +140,7 @@ void OdometryConfig::validate() const {
                     {"search_agree_m", search_agree_m},
                     {"search_agree_rad", search_agree_rad},
                     {"search_runner_up_fraction", search_runner_up_fraction},
+                    {"search_settle_after_s", search_settle_after_s},
                     {"reanchor_after_s", reanchor_after_s},
                     {"lost_after_degenerate_s", lost_after_degenerate_s},
                     {"imu_distrust_accel_mps2", imu_distrust_accel_mps2},
@@ -598,7 +599,8 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
         ++counters_.second_guesses;
       }
     }
-    SearchOutcome found = register_by_search(map_, source, guesses, reach_m);
+    const bool settle = !config_.use_imu && sweep.unregistered_s() > config_.search_settle_after_s;
+    SearchOutcome found = register_by_search(map_, source, guesses, reach_m, settle);
     if (!search_accepts(found, false)) {
       // The sweep sees what the local map never did (around a corner, after a long pause):
       // nothing to place it against, so the local map restarts from it at the predicted
@@ -1002,7 +1004,8 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
   // The new map holds its drift since the restart, small beside the restart's error: the
   // restart's uncertainty, around the current pose.
   const PosePrior prior{T_local_body(), anchor_->information};
-  const SearchOutcome found = register_by_search(anchor_->map, source, {prior}, anchor_->reach_m);
+  const SearchOutcome found =
+      register_by_search(anchor_->map, source, {prior}, anchor_->reach_m, true);
   if (!search_accepts(found, true)) {
     if (anchor_->attempts >= config_.reanchor_attempts) {
       anchor_.reset();  // the new local map is the only one from now on
@@ -1069,7 +1072,7 @@ void LidarInertialOdometry::restart_local_map() {
 
 LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
     const VoxelHashMap& target, const std::vector<Eigen::Vector3f>& source,
-    const std::vector<PosePrior>& guesses, double reach_m) const {
+    const std::vector<PosePrior>& guesses, double reach_m, bool settle) const {
   const double half_xy_m = std::min(reach_m, config_.search_max_xy_m);
   // Wider windows in coarser cells: at most 21 x 21 shifts per yaw.
   CorrelativeSearchConfig search = config_.search;
@@ -1110,6 +1113,7 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
     RegistrationResult result;
     int inliers;
     double prior_density;  // exp(-d^2 / 2), d: the Mahalanobis distance from its guess
+    const PosePrior* guess;
   };
   std::vector<Answer> answers;
   for (const PosePrior& guess : guesses) {
@@ -1135,7 +1139,8 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
                                                      T_body_lidar_.translation());
       const int n = inliers(target, r.T_target_source, source);
       const Vector6d delta = se3::minus(r.T_target_source, guess.T_target_source);
-      answers.push_back({std::move(r), n, std::exp(-0.5 * delta.dot(guess.information * delta))});
+      answers.push_back(
+          {std::move(r), n, std::exp(-0.5 * delta.dot(guess.information * delta)), &guess});
     }
   }
   const auto best =
@@ -1143,8 +1148,21 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
                        [](const Answer& a, const Answer& b) { return a.inliers < b.inliers; });
   SearchOutcome out;
   out.result = best->result;
+  int best_inliers = best->inliers;
+  if (settle) {
+    RegistrationConfig normal_kernel = refine;
+    normal_kernel.cauchy_scale_m = config_.registration.cauchy_scale_m;
+    RegistrationResult settled =
+        register_point_to_plane(source, target, best->result.T_target_source, *best->guess,
+                                normal_kernel, T_body_lidar_.translation());
+    const int settled_inliers = inliers(target, settled.T_target_source, source);
+    if (settled_inliers >= best_inliers) {
+      out.result = std::move(settled);
+      best_inliers = settled_inliers;
+    }
+  }
   const double points = static_cast<double>(source.size());
-  out.inlier_ratio = best->inliers / points;
+  out.inlier_ratio = best_inliers / points;
   out.weighted_ratio = out.inlier_ratio * best->prior_density;
   for (const Answer& answer : answers) {
     const double ratio = answer.inliers / points;

@@ -137,6 +137,18 @@ struct OdometryConfig {
   double search_agree_m = 0.5;
   double search_agree_rad = 0.02;
   double search_runner_up_fraction = 0.8;
+  // The search's winner is refined at a search cell's radius with a kernel as wide, which
+  // pulls a start a metre off onto the map; where the sweep shares little with the map
+  // (after a pause of seconds, tens of metres on) the points that do not fit pull too, and
+  // tilted it: Mid-360 without an IMU, 0.2 degrees at the first sweep after a 5.1 s gap,
+  // kept by every later sweep. So without an IMU (with one, gravity holds the tilt) after
+  // more than search_settle_after_s without a sweep registered, and for any re-anchored
+  // local map, the winner is registered once more at the same radius (the few neighbours
+  // of a sparse far field are still found) with the normal kernel, which weighs the points
+  // that fit, and kept where at least as many points fit. Settling every searched sweep
+  // (any dropped sweep, without an IMU) moved a knife-edge acceptance in a turn and
+  // restarted the local map twice (12 m).
+  double search_settle_after_s = 1.0;
   // A restart at the predicted pose keeps the prediction's error for good (after a pause of
   // 4.6 s without an IMU, a Mid-360 sweep whose true place led by 20 % of its points, a
   // rival 67 degrees off by 16 %: restarted 2.3 m short). So the local map of before is
@@ -275,6 +287,7 @@ struct OdometryConfig {
     v("search_agree_m", search_agree_m);
     v("search_agree_rad", search_agree_rad);
     v("search_runner_up_fraction", search_runner_up_fraction);
+    v("search_settle_after_s", search_settle_after_s);
     v("reanchor_after_s", reanchor_after_s);
     v("reanchor_attempts", reanchor_attempts);
     v("lost_after_degenerate_s", lost_after_degenerate_s);
@@ -411,8 +424,8 @@ class LidarInertialOdometry {
       const std::vector<Eigen::Vector3f>& points) const;
   // Registration from the starts of correlative searches around each guess (within
   // reach_m, prediction_reach_m(); each guess is the prior of its starts' refinement): the
-  // answer with the most points within search_inlier_m of the map, and how well it is
-  // confirmed.
+  // answer with the most points within search_inlier_m of the map (with `settle`, settled
+  // with the normal kernel: search_settle_after_s), and how well it is confirmed.
   struct SearchOutcome {
     RegistrationResult result;
     double inlier_ratio = 0.0;
@@ -425,7 +438,8 @@ class LidarInertialOdometry {
   };
   SearchOutcome register_by_search(const VoxelHashMap& target,
                                    const std::vector<Eigen::Vector3f>& source,
-                                   const std::vector<PosePrior>& guesses, double reach_m) const;
+                                   const std::vector<PosePrior>& guesses, double reach_m,
+                                   bool settle) const;
   // At least search_min_inlier_ratio, or search_confirmed_inlier_ratio confirmed by
   // search_confirming_starts with no rival within search_runner_up_fraction of it: by their
   // inliers, or, with weigh_by_prior, by their inliers times their prior density.
