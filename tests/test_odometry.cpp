@@ -283,13 +283,20 @@ struct Replayed {
   eval::TrajectoryMetrics metrics(const Recording& r) const {
     return eval::evaluate_trajectory(r.ground_truth, trajectory(), eval::EvalConfig{});
   }
-  // The estimate's position minus the truth's, in the truth's frame (the two aligned at the
-  // first estimate).
+  // The odometry frame in the truth's, the two aligned at the first estimate.
+  Eigen::Isometry3d T_truth_odom(const Recording& r) const {
+    return *r.ground_truth.at(estimates.front().utime_us * 1e-6, 0.5);
+  }
+  // The estimate's position minus the truth's, in the truth's frame.
   Eigen::Vector3d position_error(const Recording& r, const OdometryEstimate& e) const {
-    const Eigen::Isometry3d T_truth_odom =
-        *r.ground_truth.at(estimates.front().utime_us * 1e-6, 0.5);
-    return (T_truth_odom * e.T_odom_body).translation() -
+    return (T_truth_odom(r) * e.T_odom_body).translation() -
            r.ground_truth.at(e.utime_us * 1e-6, 0.5)->translation();
+  }
+  // The estimate's orientation error (the truth's body to the estimate's) as roll, pitch and
+  // yaw (rad).
+  Eigen::Vector3d rpy_error_rad(const Recording& r, const OdometryEstimate& e) const {
+    return so3::to_rpy(r.ground_truth.at(e.utime_us * 1e-6, 0.5)->linear().transpose() *
+                       T_truth_odom(r).linear() * e.T_odom_body.linear());
   }
   // Between a_s and b_s after the start (seconds) the estimate moves as the truth does,
   // within 3 % of the distance (more than 30 m).
@@ -419,14 +426,10 @@ TEST(Odometry, LidarOnlyModeBridgesPausesOfSeconds) {
   EXPECT_GT(m.path_length_m, 200.0);
   LidarInertialOdometry every_sweep(config_for(r, false));
   EXPECT_LT(m.ate_position_rmse_m, 2.0 * replay(r, every_sweep).metrics(r).ate_position_rmse_m);
-  const Eigen::Isometry3d T_truth_odom =
-      *r.ground_truth.at(run.estimates.front().utime_us * 1e-6, 0.5);
   for (const OdometryEstimate& e : run.estimates) {
-    const Eigen::Matrix3d R_truth = r.ground_truth.at(e.utime_us * 1e-6, 0.5)->linear();
-    const Eigen::Vector3d rpy = so3::to_rpy(T_truth_odom.linear() * e.T_odom_body.linear());
-    const Eigen::Vector3d rpy_truth = so3::to_rpy(R_truth);
-    ASSERT_LT(std::abs(rpy.x() - rpy_truth.x()), 0.05) << "roll at " << e.utime_us;
-    ASSERT_LT(std::abs(rpy.y() - rpy_truth.y()), 0.05) << "pitch at " << e.utime_us;
+    const Eigen::Vector3d rpy_error = run.rpy_error_rad(r, e);
+    ASSERT_LT(std::abs(rpy_error.x()), 0.05) << "roll at " << e.utime_us;
+    ASSERT_LT(std::abs(rpy_error.y()), 0.05) << "pitch at " << e.utime_us;
   }
 }
 
@@ -543,14 +546,9 @@ TEST(Odometry, LidarOnlyAfterAPauseTheSearchsAnswerIsSettled) {
       const double t = scan == nullptr ? 0.0 : (scan->utime_us - t0) * 1e-6;
       return t < pause_start_s || (t > pause_end_s && t < pause_end_s + 0.5);
     });
-    const Eigen::Isometry3d T_truth_odom =
-        *r.ground_truth.at(run.estimates.front().utime_us * 1e-6, 0.5);
     for (const OdometryEstimate& e : run.estimates) {
       if ((e.utime_us - t0) * 1e-6 > pause_end_s) {
-        const Eigen::Matrix3d R_error =
-            r.ground_truth.at(e.utime_us * 1e-6, 0.5)->linear().transpose() *
-            T_truth_odom.linear() * e.T_odom_body.linear();
-        const Eigen::Vector3d rpy_deg = so3::to_rpy(R_error) * so3::kRadToDeg;
+        const Eigen::Vector3d rpy_deg = run.rpy_error_rad(r, e) * so3::kRadToDeg;
         return AfterThePause{std::hypot(rpy_deg.x(), rpy_deg.y()), e.inlier_ratio};
       }
     }

@@ -1104,9 +1104,9 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
     T.translation() = start + Eigen::Vector3d(0.0, 0.0, best_dz);
     return T;
   };
-  // Each start is within a search cell of its answer, so registration refines it as a well
-  // predicted sweep; its guess's wide prior still holds what the scan leaves weak (a
-  // street's length).
+  // Each start is within a search cell of its answer, so registration (point-to-plane,
+  // Eq. 6) refines it as a well predicted sweep; its guess's wide prior still holds what the
+  // scan leaves weak (a street's length).
   const RegistrationConfig refine = registration_config(search.cell_m);
   const CorrelativeSearch correlative(target.points(), search);
   struct Answer {
