@@ -96,7 +96,6 @@ struct Run {
   int64_t lost_scans = 0;
   int64_t health_resets = 0;
   int64_t imu_disagreements = 0;
-  int64_t scans_kept_out_of_map = 0;
   std::string imu_fault = "none";
   int64_t keyframes = 0;
   double accel_bias_error = 0.0;
@@ -280,7 +279,6 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   run.lost_scans = odometry.counters().lost_scans;
   run.health_resets = odometry.counters().health_resets;
   run.imu_disagreements = odometry.counters().imu_disagreements;
-  run.scans_kept_out_of_map = odometry.counters().scans_kept_out_of_map;
   run.imu_fault = imu_fault.describe();
   run.keyframes = odometry.counters().keyframes;
   if (use_imu) {
@@ -503,8 +501,6 @@ int main(int argc, char** argv) {
           .integer(r.health_resets)
           .key("imu_disagreements")
           .integer(r.imu_disagreements)
-          .key("scans_kept_out_of_map")
-          .integer(r.scans_kept_out_of_map)
           .key("imu_fault")
           .string(r.imu_fault)
           .key("accel_bias_error_mps2")

@@ -92,12 +92,6 @@ void OdometryConfig::validate() const {
   if (reanchor_attempts < 0) {
     throw std::invalid_argument("reanchor_attempts must be at least 0 (0: never)");
   }
-  if (!(map_reject_fit_factor >= 0) || !(map_reject_fit_floor_m >= 0) ||
-      map_reject_fit_window < 2) {
-    throw std::invalid_argument(
-        "map_reject_fit_factor (0: every sweep taken in) and map_reject_fit_floor_m must be at "
-        "least 0, map_reject_fit_window at least 2");
-  }
   if (!(imu_consistency_nis >= 0) || imu_distrust_doublings < 0) {
     throw std::invalid_argument(
         "imu_consistency_nis (0: no check) and imu_distrust_doublings must be at least 0");
@@ -659,9 +653,6 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
     }
   }
   est.fitness_m = result.rms_residual_m;
-  sweep.kept_out_of_map = !config_.use_imu && !searched && fits_far_worse(result.rms_residual_m);
-  est.kept_out_of_map = sweep.kept_out_of_map;
-  counters_.scans_kept_out_of_map += sweep.kept_out_of_map ? 1 : 0;
   est.correspondences = result.correspondences;
   est.degenerate = result.degenerate;
   est.translation_eigen_ratio = result.translation_eigen_ratio;
@@ -703,26 +694,6 @@ RegistrationResult LidarInertialOdometry::register_in_local_map(
   // Point-to-plane registration (Eq. 6) against the local map, the prediction as prior.
   return register_point_to_plane(source, map_, T_local_body_guess, prior,
                                  registration_config(radius_m), T_body_lidar_.translation());
-}
-
-bool LidarInertialOdometry::fits_far_worse(double rms_residual_m) {
-  if (config_.map_reject_fit_factor <= 0.0) {
-    return false;
-  }
-  if (static_cast<int>(recent_fitness_m_.size()) >= config_.map_reject_fit_window / 2) {
-    std::vector<double> sorted(recent_fitness_m_.begin(), recent_fitness_m_.end());
-    const auto middle = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
-    std::nth_element(sorted.begin(), middle, sorted.end());
-    if (rms_residual_m >
-        std::max(config_.map_reject_fit_floor_m, config_.map_reject_fit_factor * *middle)) {
-      return true;
-    }
-  }
-  recent_fitness_m_.push_back(rms_residual_m);
-  while (static_cast<int>(recent_fitness_m_.size()) > config_.map_reject_fit_window) {
-    recent_fitness_m_.pop_front();
-  }
-  return false;
 }
 
 bool LidarInertialOdometry::imu_distrusted(const Sweep& sweep) const {
@@ -1097,7 +1068,6 @@ void LidarInertialOdometry::restart_local_map() {
   map_ = VoxelHashMap(config_.map);
   have_map_insert_ = false;
   recent_fits_.clear();
-  recent_fitness_m_.clear();
 }
 
 LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
@@ -1219,9 +1189,6 @@ bool LidarInertialOdometry::search_accepts(const SearchOutcome& found, bool weig
 }
 
 void LidarInertialOdometry::update_map(const Sweep& sweep) {
-  if (sweep.kept_out_of_map) {
-    return;
-  }
   const Eigen::Isometry3d moved = last_insert_T_local_body_.inverse() * T_local_body();
   if (!have_map_insert_ || moved.translation().norm() >= config_.map_insert_translation_m ||
       se3::rotation_angle(moved) >= config_.map_insert_rotation_rad) {

@@ -153,18 +153,6 @@ struct OdometryConfig {
   // (any dropped sweep, without an IMU) moved a knife-edge acceptance in a turn and
   // restarted the local map twice (12 m).
   double search_settle_after_s = 1.0;
-  // Without an IMU, a sweep registered from the prediction (not searched) whose RMS
-  // point-to-plane residual exceeds map_reject_fit_factor times the median of the last
-  // map_reject_fit_window sweeps taken, and map_reject_fit_floor_m, is kept out of the local
-  // map. The constant-velocity model misses a quick swerve (another town's campus A at
-  // 291 s: a 6.5-degree kink taken at 24 deg/s): the sweeps through it registered 3 degrees
-  // off (0.14-0.27 m against the usual 0.03 m), the map took them in, every later sweep
-  // matched them, and the drive kept a 2.9-degree yaw error for good (Mid-360, 1.1 m ATE,
-  // nothing reported). Kept out, the sweeps after the swerve register to the map of
-  // before it. 0: every sweep is taken in.
-  double map_reject_fit_factor = 3.0;
-  double map_reject_fit_floor_m = 0.1;
-  int map_reject_fit_window = 20;
   // A restart at the predicted pose keeps the prediction's error for good (after a pause of
   // 4.6 s without an IMU, a Mid-360 sweep whose true place led by 20 % of its points, a
   // rival 67 degrees off by 16 %: restarted 2.3 m short). So the local map of before is
@@ -304,9 +292,6 @@ struct OdometryConfig {
     v("search_agree_rad", search_agree_rad);
     v("search_runner_up_fraction", search_runner_up_fraction);
     v("search_settle_after_s", search_settle_after_s);
-    v("map_reject_fit_factor", map_reject_fit_factor);
-    v("map_reject_fit_floor_m", map_reject_fit_floor_m);
-    v("map_reject_fit_window", map_reject_fit_window);
     v("reanchor_after_s", reanchor_after_s);
     v("reanchor_attempts", reanchor_attempts);
     v("lost_after_degenerate_s", lost_after_degenerate_s);
@@ -380,7 +365,6 @@ class LidarInertialOdometry {
     std::vector<LidarPoint> sparse;            // one per registration voxel
     MotionProfile motion;                      // the body's motion over the sweep
     std::vector<Eigen::Vector3f> points_body;  // sparse, deskewed to the sweep's end
-    bool kept_out_of_map = false;  // fit far worse than the sweeps before (map_reject_fit_factor)
     // The state before this sweep's prediction: the previous sweep's end.
     Eigen::Isometry3d T_local_body_before = Eigen::Isometry3d::Identity();
     Eigen::Vector3d velocity_before = Eigen::Vector3d::Zero();
@@ -588,12 +572,6 @@ class LidarInertialOdometry {
     double inlier_ratio = 0.0;  // with the IMU (OdometryEstimate::inlier_ratio)
   };
   std::deque<RecentFit> recent_fits_;
-  // The RMS residuals (m) of the last sweeps taken into the local map without an IMU
-  // (map_reject_fit_window).
-  std::deque<double> recent_fitness_m_;
-  // Without an IMU: whether a sweep registered from the prediction with this residual fits
-  // far worse than the sweeps before it (map_reject_fit_factor); remembers it if not.
-  bool fits_far_worse(double rms_residual_m);
   // The IMU's prediction is widened for the sweeps ending up to here (outweigh_imu, and
   // after a reset).
   int64_t imu_distrusted_until_us_ = std::numeric_limits<int64_t>::min();

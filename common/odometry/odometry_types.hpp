@@ -61,9 +61,6 @@ struct OdometryEstimate {
   bool degenerate = false;
   double translation_eigen_ratio = 0.0;
   double rotation_eigen_ratio = 0.0;
-  // Without an IMU: the sweep fit far worse than the sweeps before it and was kept out of the
-  // local map (OdometryConfig::map_reject_fit_factor).
-  bool kept_out_of_map = false;
   // Not empty: the estimate is not trusted, and why (a sweep that could not be placed:
   // the pose is the prediction and the local map restarted from it; or a long degenerate
   // streak without an IMU). STATUS.odometry reports it as MODE_LOST.
@@ -108,8 +105,6 @@ struct OdometryCounters {
   int64_t reanchors = 0;          // after a restart, found again in the local map of before
   int64_t lost_scans = 0;         // estimates with a lost_reason
   int64_t standstill_scans = 0;   // zero-velocity updates applied
-  // Without an IMU: fit far worse than the sweeps before, kept out of the local map.
-  int64_t scans_kept_out_of_map = 0;
   int64_t keyframes = 0;
   int64_t corrections_applied = 0;
   int64_t corrections_rejected = 0;  // time outside the kept history, or non-finite
