@@ -92,6 +92,11 @@ void OdometryConfig::validate() const {
   if (reanchor_attempts < 0) {
     throw std::invalid_argument("reanchor_attempts must be at least 0 (0: never)");
   }
+  if (!(poor_fit_factor >= 0) || !(poor_fit_floor_m >= 0) || poor_fit_window < 2) {
+    throw std::invalid_argument(
+        "poor_fit_factor (0: never) and poor_fit_floor_m must be at least 0, poor_fit_window at "
+        "least 2");
+  }
   if (!(imu_consistency_nis >= 0) || imu_distrust_doublings < 0) {
     throw std::invalid_argument(
         "imu_consistency_nis (0: no check) and imu_distrust_doublings must be at least 0");
@@ -141,6 +146,8 @@ void OdometryConfig::validate() const {
                     {"search_agree_rad", search_agree_rad},
                     {"search_runner_up_fraction", search_runner_up_fraction},
                     {"search_settle_after_s", search_settle_after_s},
+                    {"poor_fit_search_m", poor_fit_search_m},
+                    {"poor_fit_search_yaw_rad", poor_fit_search_yaw_rad},
                     {"reanchor_after_s", reanchor_after_s},
                     {"lost_after_degenerate_s", lost_after_degenerate_s},
                     {"imu_distrust_accel_mps2", imu_distrust_accel_mps2},
@@ -622,6 +629,9 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
     result = register_in_local_map(source, prior.T_target_source, prior,
                                    std::min(reach_m, config_.correspondence_cap_m));
     result = outweigh_imu(sweep, source, prior, reach_m, std::move(result), est);
+    if (!config_.use_imu && fits_far_worse(result.rms_residual_m)) {
+      result = search_poor_fit(source, prior, std::move(result));
+    }
   }
   const Eigen::Vector3d p_predicted = x_.p;
   // Biases and gravity are considered (Schmidt) across a long gap and while the IMU is
@@ -694,6 +704,43 @@ RegistrationResult LidarInertialOdometry::register_in_local_map(
   // Point-to-plane registration (Eq. 6) against the local map, the prediction as prior.
   return register_point_to_plane(source, map_, T_local_body_guess, prior,
                                  registration_config(radius_m), T_body_lidar_.translation());
+}
+
+bool LidarInertialOdometry::fits_far_worse(double rms_residual_m) {
+  if (config_.poor_fit_factor <= 0.0) {
+    return false;
+  }
+  if (static_cast<int>(recent_fitness_m_.size()) >= config_.poor_fit_window / 2) {
+    std::vector<double> fits_m(recent_fitness_m_.begin(), recent_fitness_m_.end());
+    if (rms_residual_m >
+        std::max(config_.poor_fit_floor_m, config_.poor_fit_factor * median(fits_m))) {
+      return true;
+    }
+  }
+  recent_fitness_m_.push_back(rms_residual_m);
+  while (static_cast<int>(recent_fitness_m_.size()) > config_.poor_fit_window) {
+    recent_fitness_m_.pop_front();
+  }
+  return false;
+}
+
+RegistrationResult LidarInertialOdometry::search_poor_fit(
+    const std::vector<Eigen::Vector3f>& source, const PosePrior& prior, RegistrationResult result) {
+  ++counters_.poor_fits_searched;
+  // The prediction widened to the swerve it may have missed.
+  Matrix6d covariance = prior.information.inverse();
+  const double k = config_.correspondence_sigmas;
+  covariance.diagonal().segment<3>(kPos).array() += std::pow(config_.poor_fit_search_m / k, 2);
+  covariance.diagonal().segment<3>(kRot).array() +=
+      std::pow(config_.poor_fit_search_yaw_rad / k, 2);
+  const PosePrior wide{prior.T_target_source, covariance.inverse()};
+  SearchOutcome found = register_by_search(map_, source, {wide}, config_.poor_fit_search_m, true);
+  const double before = inlier_ratio(result.T_target_source, source);
+  if (!search_accepts(found, false) || found.inlier_ratio <= before) {
+    return result;
+  }
+  ++counters_.poor_fits_moved;
+  return std::move(found.result);
 }
 
 bool LidarInertialOdometry::imu_distrusted(const Sweep& sweep) const {
@@ -1068,6 +1115,7 @@ void LidarInertialOdometry::restart_local_map() {
   map_ = VoxelHashMap(config_.map);
   have_map_insert_ = false;
   recent_fits_.clear();
+  recent_fitness_m_.clear();
 }
 
 LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(

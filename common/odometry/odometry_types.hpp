@@ -103,8 +103,12 @@ struct OdometryCounters {
   int64_t health_resets = 0;      // implausible speed, acceleration or jump: state reset
   int64_t imu_disagreements = 0;  // the LiDAR contradicted the IMU's prediction: widened
   int64_t reanchors = 0;          // after a restart, found again in the local map of before
-  int64_t lost_scans = 0;         // estimates with a lost_reason
-  int64_t standstill_scans = 0;   // zero-velocity updates applied
+  // Without an IMU: fit far worse than the sweeps before, searched again (poor_fit_factor),
+  // and of those, placed elsewhere by the search.
+  int64_t poor_fits_searched = 0;
+  int64_t poor_fits_moved = 0;
+  int64_t lost_scans = 0;        // estimates with a lost_reason
+  int64_t standstill_scans = 0;  // zero-velocity updates applied
   int64_t keyframes = 0;
   int64_t corrections_applied = 0;
   int64_t corrections_rejected = 0;  // time outside the kept history, or non-finite
