@@ -599,7 +599,7 @@ TEST(Odometry, LidarOnlyASweepTheMotionModelMissedIsSearchedFor) {
   const Recording& r = campus_drive();
   const double jump_deg = 10.0;
   struct YawError {
-    double first_deg = 0.0;     // the first sweep after the jump
+    double first_deg = -1.0;    // the first sweep after the jump (-1: none)
     double after_2s_deg = 0.0;  // the worst from 2 s after it
   };
   const auto yaw_error = [&](double poor_fit_factor) {
@@ -620,7 +620,6 @@ TEST(Odometry, LidarOnlyASweepTheMotionModelMissedIsSearchedFor) {
       return scan == nullptr || seconds(scan->utime_us) < 23.0;
     });
     YawError out;
-    out.first_deg = -1.0;
     for (const OdometryEstimate& e : run.estimates) {
       const double t_s = seconds(e.utime_us);
       const double error_deg = std::abs(run.rpy_error_rad(r, e).z() * so3::kRadToDeg - jump_deg);
@@ -631,6 +630,7 @@ TEST(Odometry, LidarOnlyASweepTheMotionModelMissedIsSearchedFor) {
         out.after_2s_deg = std::max(out.after_2s_deg, error_deg);
       }
     }
+    EXPECT_GE(out.first_deg, 0.0) << "no sweep after the jump";
     return out;
   };
   const YawError searched = yaw_error(OdometryConfig{}.poor_fit_factor);
