@@ -154,8 +154,9 @@ struct OdometryConfig {
   // restarted the local map twice (12 m).
   double search_settle_after_s = 1.0;
   // Without an IMU, a sweep registered from the prediction whose RMS point-to-plane
-  // residual exceeds poor_fit_factor times the median of the last poor_fit_window sweeps,
-  // and poor_fit_floor_m, is searched for as after a pause, within poor_fit_search_m and
+  // residual (Eq. 6) exceeds poor_fit_factor times the median of the last poor_fit_window
+  // such sweeps that did not (once half as many are known), and poor_fit_floor_m, is
+  // searched for as after a pause, within poor_fit_search_m and
   // poor_fit_search_yaw_rad of the prediction, and the search's answer taken where more of
   // its points fit. The constant-velocity model misses a quick swerve (another town's
   // campus A at 291 s: a 6.5-degree kink taken at 24 deg/s): registered from the
