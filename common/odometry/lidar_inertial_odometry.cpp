@@ -611,16 +611,31 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
     if (!search_accepts(found, false)) {
       // The sweep sees what the local map never did (around a corner, after a long pause):
       // nothing to place it against, so the local map restarts from it at the predicted
-      // pose rather than take a pose that fits a few points.
-      char reason[200];
+      // pose rather than take a pose that fits a few points, or, after a pause without an
+      // IMU, at an answer that fits more and that starts agree on (restart_at_answer_starts).
+      const bool at_answer = settle && config_.restart_at_answer_starts > 0 &&
+                             found.agreeing_starts >= config_.restart_at_answer_starts &&
+                             found.inlier_ratio >= config_.search_confirmed_inlier_ratio;
+      char reason[220];
       std::snprintf(reason, sizeof(reason),
                     "after %.1f s without a sweep registered only %.0f %% of the sweep fits "
                     "the local map (%d starts agree, %.0f %% elsewhere): the local map "
-                    "restarts at the predicted pose",
+                    "restarts at the %s",
                     sweep.unregistered_s(), 100.0 * found.inlier_ratio, found.agreeing_starts,
-                    100.0 * found.runner_up_ratio);
+                    100.0 * found.runner_up_ratio,
+                    at_answer ? "search's answer" : "predicted pose");
       est.lost_reason = reason;
-      restart_keeping_anchor(prior.information, reach_m);
+      Eigen::Isometry3d T_predicted_restarted = Eigen::Isometry3d::Identity();
+      if (at_answer) {
+        T_predicted_restarted = T_local_body() * found.result.T_target_source.inverse();
+        x_.R = found.result.T_target_source.linear();
+        x_.p = found.result.T_target_source.translation();
+        // The twist across the pause, as after an accepted search: the one of before it
+        // put the next sweep, 0.4 s later, 1.5 m short (VLP-16, it sped up from 3.7 to
+        // 7.5 m/s in the pause), where a new map of one sweep held it for good.
+        update_twist(sweep);
+      }
+      restart_keeping_anchor(prior.information, reach_m, T_predicted_restarted);
       return;
     }
     result = std::move(found.result);
@@ -1009,7 +1024,8 @@ void LidarInertialOdometry::reset_to(const Sweep& sweep, bool restart_map) {
   }
 }
 
-void LidarInertialOdometry::restart_keeping_anchor(const Matrix6d& information, double reach_m) {
+void LidarInertialOdometry::restart_keeping_anchor(const Matrix6d& information, double reach_m,
+                                                   const Eigen::Isometry3d& T_predicted_restarted) {
   if (config_.reanchor_attempts == 0) {
     restart_local_map();
   } else if (anchor_) {
@@ -1017,13 +1033,15 @@ void LidarInertialOdometry::restart_keeping_anchor(const Matrix6d& information, 
     // nothing either): the anchor stays the map of before the first; the error since is
     // within the larger reach.
     anchor_->reach_m = std::max(anchor_->reach_m, reach_m);
+    anchor_->T_predicted_restarted = anchor_->T_predicted_restarted * T_predicted_restarted;
     restart_local_map();
   } else {
-    Anchor anchor{std::move(map_), information, reach_m, state_utime_, state_utime_, 0};
+    Anchor anchor{std::move(map_), information, reach_m, state_utime_, state_utime_};
+    anchor.T_predicted_restarted = T_predicted_restarted;
     restart_local_map();
     anchor_ = std::move(anchor);
   }
-  // The sweep that could not be placed begins the new local map at the predicted pose, so
+  // The sweep that could not be placed begins the new local map at the restart's pose, so
   // in that map the pose is exact; the restart's spread stays with the anchor. Kept in P_,
   // it had the next sweep searched too, against a map of one sweep, which the next sweep
   // of a sparse LiDAR fits by 13-15 %: the local map restarted again and again (Mid-360
@@ -1049,8 +1067,9 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
     p = T_body_local * p;
   }
   // The new map holds its drift since the restart, small beside the restart's error: the
-  // restart's uncertainty, around the current pose.
-  const PosePrior prior{T_local_body(), anchor_->information};
+  // restart's uncertainty, around the current pose as it would be had the local map
+  // restarted at the prediction.
+  const PosePrior prior{anchor_->T_predicted_restarted * T_local_body(), anchor_->information};
   const SearchOutcome found =
       register_by_search(anchor_->map, source, {prior}, anchor_->reach_m, true);
   if (!search_accepts(found, true)) {
