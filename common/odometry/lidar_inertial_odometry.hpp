@@ -155,10 +155,11 @@ struct OdometryConfig {
   double search_settle_after_s = 1.0;
   // When that search after a pause is rejected (without an IMU), the local map restarts at
   // its answer rather than at the prediction where at least this many starts agree on an
-  // answer that fits search_confirmed_inlier_ratio of the sweep; 0: at the prediction. The
-  // constant-velocity prediction across a 5 s pause is metres off, and the answers so
-  // placed were where the re-anchoring later found the truth (Mid-360, sweeps dropped:
-  // 2.7-5.2 m off until then). The re-anchoring still searches around the prediction.
+  // answer that fits search_confirmed_inlier_ratio of the sweep, with the twist across the
+  // pause as after an accepted search; 0: at the prediction. The constant-velocity
+  // prediction across a 5 s pause is metres off, and the answers so placed were where the
+  // re-anchoring later found the truth (Mid-360, sweeps dropped: 2.7-5.2 m off until
+  // then). The re-anchoring still searches around the prediction.
   int restart_at_answer_starts = 2;
   // Without an IMU, a sweep registered from the prediction whose RMS point-to-plane
   // residual (Eq. 6) exceeds poor_fit_factor times the median of the last poor_fit_window
