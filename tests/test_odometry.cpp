@@ -232,6 +232,8 @@ struct Recording {
   Eigen::Vector3d accel_bias, gyro_bias;
   sim::SimulationConfig config;
   double length_m = 0.0;
+  // Seconds since the drive's start.
+  double seconds(int64_t utime_us) const { return (utime_us - config.start_utime) * 1e-6; }
 };
 
 // Simulates r's drive along waypoints in world, with r.config's rig and IMU.
@@ -609,19 +611,18 @@ TEST(Odometry, LidarOnlyASweepTheMotionModelMissedIsSearchedFor) {
     const Eigen::Matrix3f R_turned =
         Eigen::AngleAxisf(static_cast<float>(-jump_deg / so3::kRadToDeg), Eigen::Vector3f::UnitZ())
             .toRotationMatrix();
-    const auto seconds = [&](int64_t utime_us) { return (utime_us - r.config.start_utime) * 1e-6; };
     const Replayed run = replay(r, odometry, [&](std::variant<ImuSample, LidarScan>& e) {
       LidarScan* scan = std::get_if<LidarScan>(&e);
-      if (scan && seconds(scan->utime_us) > 20.0) {
+      if (scan && r.seconds(scan->utime_us) > 20.0) {
         for (LidarPoint& p : scan->points) {
           p.position_m = R_turned * p.position_m;
         }
       }
-      return scan == nullptr || seconds(scan->utime_us) < 23.0;
+      return scan == nullptr || r.seconds(scan->utime_us) < 23.0;
     });
     YawError out;
     for (const OdometryEstimate& e : run.estimates) {
-      const double t_s = seconds(e.utime_us);
+      const double t_s = r.seconds(e.utime_us);
       const double error_deg = std::abs(run.rpy_error_rad(r, e).z() * so3::kRadToDeg - jump_deg);
       if (t_s > 20.15 && out.first_deg < 0.0) {
         out.first_deg = error_deg;
@@ -844,7 +845,6 @@ TEST(Odometry, AfterARestartTheNextSweepIsRegisteredToTheNewLocalMap) {
 // map within 0.95 m over the next 10 s. The restart's reason says where it restarted.
 TEST(Odometry, LidarOnlyARefusedSearchAfterAPauseRestartsAtItsAnswer) {
   const Recording& r = campus_drive();
-  const int64_t t0 = r.config.start_utime;
   const double pause_s = 30.0;  // 30-34 s: the vehicle turns 79 degrees
   struct Outcome {
     // Position errors beyond the one before the pause: at the first sweep after it, and
@@ -860,13 +860,13 @@ TEST(Odometry, LidarOnlyARefusedSearchAfterAPauseRestartsAtItsAnswer) {
     LidarInertialOdometry odometry(config);
     const Replayed run = replay(r, odometry, [&](const std::variant<ImuSample, LidarScan>& e) {
       const LidarScan* scan = std::get_if<LidarScan>(&e);
-      const double t = scan == nullptr ? 0.0 : (scan->utime_us - t0) * 1e-6;
+      const double t = scan == nullptr ? 0.0 : r.seconds(scan->utime_us);
       return t <= pause_s || t >= pause_s + 4.0;
     });
     Outcome o;
     Eigen::Vector3d before = Eigen::Vector3d::Zero();
     for (const OdometryEstimate& e : run.estimates) {
-      const double t = (e.utime_us - t0) * 1e-6;
+      const double t = r.seconds(e.utime_us);
       const Eigen::Vector3d error = run.position_error(r, e);
       if (t <= pause_s + 1.0) {
         before = error;
