@@ -350,7 +350,7 @@ int main(int argc, char** argv) {
   std::string drop_seeds = "0";
   std::string config_path;
   CommandLine cli("bench_odometry", "LiDAR-inertial odometry on simulated sessions.");
-  cli.add_option("worlds", &worlds, "campus, corridor or both");
+  cli.add_option("worlds", &worlds, "campus, corridor or campus,corridor");
   cli.add_option("lidar", &lidars, "comma list of models, or all");
   cli.add_option("sessions", &sessions, "campus sessions (the corridor runs A)");
   cli.add_option("length-scale", &length_scale, "scale the sessions' route lengths");
@@ -361,7 +361,7 @@ int main(int argc, char** argv) {
   cli.add_option("world-seed", &world_seed, "the simulated world's seed (another town)");
   cli.add_option("timing", &timing,
                  "regular, irregular (a third of the sweeps dropped at random and 1-5 s "
-                 "every ~20 s) or both");
+                 "every ~20 s) or regular,irregular");
   cli.add_option("drop-seeds", &drop_seeds,
                  "irregular timing: comma list of the drop patterns' seeds (0: the default "
                  "pattern); one run per pattern, since one pattern's ATE can hinge on a few "

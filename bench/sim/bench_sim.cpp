@@ -35,7 +35,7 @@ int main(int argc, char** argv) {
   cli.add_option("json", &json_path, "result file");
   cli.add_option("lidar", &lidars, "comma list of models, or all");
   cli.add_option("sessions", &sessions, "sessions of the campus (the corridor makes A only)");
-  cli.add_option("worlds", &worlds, "campus, corridor or both");
+  cli.add_option("worlds", &worlds, "campus, corridor or campus,corridor");
   cli.add_option("threads", &threads, "ray-casting threads");
   cli.add_flag("keep", &keep, "keep the generated sessions");
   return run_program(cli, "bench_sim", argc, argv, [&]() -> int {
