@@ -329,6 +329,11 @@ bool LidarInertialOdometry::initialize(int64_t start_utime) {
 
 Eigen::Isometry3d LidarInertialOdometry::T_local_body() const { return se3::make(x_.R, x_.p); }
 
+void LidarInertialOdometry::set_T_local_body(const Eigen::Isometry3d& T_local_body) {
+  x_.R = T_local_body.linear();
+  x_.p = T_local_body.translation();
+}
+
 MotionProfile LidarInertialOdometry::constant_twist_motion(const Eigen::Isometry3d& T_start,
                                                            int64_t t0_us, int64_t t1_us,
                                                            const Vector6d& twist) {
@@ -514,8 +519,7 @@ void LidarInertialOdometry::update(const RegistrationResult& result, bool update
     P_ -= reduction;
     P_ = 0.5 * (P_ + P_.transpose());
   } else {
-    x_.R = result.T_target_source.linear();
-    x_.p = result.T_target_source.translation();
+    set_T_local_body(result.T_target_source);
     P_.topLeftCorner<6, 6>() = posterior;
   }
 }
@@ -628,8 +632,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
       Eigen::Isometry3d T_predicted_restarted = Eigen::Isometry3d::Identity();
       if (at_answer) {
         T_predicted_restarted = T_local_body() * found.result.T_target_source.inverse();
-        x_.R = found.result.T_target_source.linear();
-        x_.p = found.result.T_target_source.translation();
+        set_T_local_body(found.result.T_target_source);
         // The twist across the pause, as after an accepted search: the one of before it
         // put the next sweep, 0.4 s later, 1.5 m short (VLP-16, it sped up from 3.7 to
         // 7.5 m/s in the pause), where a new map of one sweep held it for good.
@@ -672,8 +675,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
           deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, sweep.motion, T_body_lidar_);
       result = register_in_local_map(registration_points(sweep.points_body), T_local_body(), prior,
                                      config_.registration.max_correspondence_m);
-      x_.R = result.T_target_source.linear();
-      x_.p = result.T_target_source.translation();
+      set_T_local_body(result.T_target_source);
       update_twist(sweep);
     }
   }
@@ -1006,8 +1008,7 @@ void LidarInertialOdometry::reset_to(const Sweep& sweep, bool restart_map) {
   // of a restart: the pose, rotation and velocity forget their correlations; biases and
   // gravity keep theirs. (The previous sweep's velocity may be the fault's: resetting to
   // it repeated the runaway, reset after reset; docs/odometry.md.)
-  x_.R = sweep.T_local_body_before.linear();
-  x_.p = sweep.T_local_body_before.translation();
+  set_T_local_body(sweep.T_local_body_before);
   x_.v = config_.use_imu ? trusted_velocity_ : sweep.velocity_before;
   twist_.setZero();
   twist_.head<3>() = x_.R.transpose() * x_.v;

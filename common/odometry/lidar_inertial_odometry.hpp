@@ -564,6 +564,7 @@ class LidarInertialOdometry {
   void blend_correction();
   std::optional<Eigen::Isometry3d> pose_in_history(int64_t utime_us) const;
   Eigen::Isometry3d T_local_body() const;
+  void set_T_local_body(const Eigen::Isometry3d& T_local_body);
 
   OdometryConfig config_;
   Eigen::Isometry3d T_body_lidar_;
