@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "pointcloud/compact_cloud.hpp"
+#include "pointcloud/elevation_gap.hpp"
 #include "pointcloud/voxel_grid.hpp"
 #include "pointcloud/voxel_index_table.hpp"
 
@@ -145,6 +146,63 @@ TEST(VoxelGrid, SparsePointsAreCappedAndSpread) {
   const std::vector<Eigen::Vector3f> capped = sparse_points(line, 0.5f, 150);
   EXPECT_EQ(capped.size(), 150u);
   EXPECT_GT(capped.back().x(), 98.0f);
+}
+
+// Points at 20 m on rays of the given elevations (deg), every 2 degrees of azimuth.
+std::vector<LidarPoint> rays_at(const std::vector<double>& elevations_deg) {
+  std::vector<LidarPoint> points;
+  for (const double el_deg : elevations_deg) {
+    const double el = el_deg * M_PI / 180.0;
+    for (int az_deg = 0; az_deg < 360; az_deg += 2) {
+      const double az = az_deg * M_PI / 180.0;
+      LidarPoint p;
+      p.position_m = 20.0f * Eigen::Vector3f(static_cast<float>(std::cos(el) * std::cos(az)),
+                                             static_cast<float>(std::cos(el) * std::sin(az)),
+                                             static_cast<float>(std::sin(el)));
+      points.push_back(p);
+    }
+  }
+  return points;
+}
+
+TEST(ElevationGap, IsTheRingSpacingNearTheHorizon) {
+  // VLP-16: 16 rings 2 degrees apart from -15 to +15.
+  std::vector<double> vlp16;
+  for (int r = 0; r < 16; ++r) {
+    vlp16.push_back(-15.0 + 2.0 * r);
+  }
+  const std::optional<double> step = largest_elevation_gap_rad(rays_at(vlp16));
+  ASSERT_TRUE(step.has_value());
+  EXPECT_NEAR(*step * 180.0 / M_PI, 2.0, 1e-3);
+  // A ring without returns (blocked, sky) widens the step: never a finer LiDAR than it is.
+  std::vector<double> missing = vlp16;
+  missing.erase(missing.begin() + 5);  // -5 deg
+  EXPECT_NEAR(*largest_elevation_gap_rad(rays_at(missing)) * 180.0 / M_PI, 4.0, 1e-3);
+}
+
+TEST(ElevationGap, IsSmallForAPatternThatFillsTheBand) {
+  // A non-repetitive pattern: elevations spread through the band, 0.01 degrees apart.
+  std::vector<double> filled;
+  for (double el = -7.0; el <= 10.0; el += 0.01) {
+    filled.push_back(el);
+  }
+  EXPECT_LT(*largest_elevation_gap_rad(rays_at(filled)) * 180.0 / M_PI, 0.02);
+}
+
+TEST(ElevationGap, DoesNotTellFromTooFewOrNearPoints) {
+  ElevationGapConfig config;
+  config.min_points = 1000;
+  EXPECT_FALSE(largest_elevation_gap_rad(rays_at({-3.0, -1.0}), config).has_value());  // 360
+  // Within min_range_m a beam's offset from the origin blurs its elevation: not used.
+  std::vector<LidarPoint> near = rays_at({-7.0, -5.0, -3.0, -1.0});
+  for (LidarPoint& p : near) {
+    p.position_m *= 0.2f;  // 4 m
+  }
+  EXPECT_FALSE(largest_elevation_gap_rad(near).has_value());
+  // Non-finite points are skipped, not propagated.
+  std::vector<LidarPoint> with_nan = rays_at({-7.0, -5.0, -3.0, -1.0});
+  with_nan.front().position_m.x() = std::nanf("");
+  EXPECT_NEAR(*largest_elevation_gap_rad(with_nan) * 180.0 / M_PI, 2.0, 1e-3);
 }
 
 }  // namespace

@@ -78,6 +78,7 @@ struct Run {
   std::string extrinsic_check;  // the check's message, and when it came (s after the start)
   double extrinsic_check_at_s = -1.0;
   bool extrinsic_warned = false;
+  std::string incidence_cut;  // the cut for planes seen edge-on chosen for the LiDAR
   double longest_gap_s = 0.0;
   int64_t sweeps_used = 0;
   eval::TrajectoryMetrics metrics;
@@ -217,6 +218,9 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   const auto consume = [&](const std::vector<OdometryEstimate>& out) {
     for (const OdometryEstimate& e : out) {
       estimate.push_back({e.utime_us * 1e-6, e.T_odom_body});
+      if (!e.incidence_cut.empty()) {
+        run.incidence_cut = e.incidence_cut;
+      }
       if (e.extrinsic_check) {
         run.extrinsic_check = e.extrinsic_check->message;
         run.extrinsic_check_at_s = (e.utime_us - recipe.start_utime) * 1e-6;
@@ -467,6 +471,8 @@ int main(int argc, char** argv) {
           .number(r.extrinsic_check_at_s)
           .key("extrinsic_warned")
           .boolean(r.extrinsic_warned)
+          .key("incidence_cut")
+          .string(r.incidence_cut)
           .key("sweeps_used")
           .integer(r.sweeps_used)
           .key("longest_gap_s")

@@ -12,6 +12,7 @@
 #include "math/stopwatch.hpp"
 #include "odometry/require_positive.hpp"
 #include "odometry/scan_deskewer.hpp"
+#include "pointcloud/elevation_gap.hpp"
 #include "pointcloud/voxel_grid.hpp"
 #include "pointcloud/voxel_index_table.hpp"
 
@@ -111,6 +112,13 @@ void OdometryConfig::validate() const {
     throw std::invalid_argument(
         "weak_fit_correspondences must be at least 0 and weak_fit_inlier_ratio in [0, 1) (0: "
         "no check)");
+  }
+  if (!(grazing_ring_spacings >= 0) ||
+      !(min_incidence_cos_floor >= 0 &&
+        min_incidence_cos_floor <= registration.min_incidence_cos)) {
+    throw std::invalid_argument(
+        "grazing_ring_spacings must be at least 0 (0: the cut as configured) and "
+        "min_incidence_cos_floor in [0, registration.min_incidence_cos]");
   }
   search.validate();
   extrinsic_check.validate();
@@ -533,6 +541,9 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
       timed(est.timings.preprocess_ms, [&] { return preprocess(scan, start_utime, end_utime); });
   timed(est.timings.propagate_ms, [&] { predict_and_deskew(sweep, est); });
   if (static_cast<int>(sweep.valid.size()) >= config_.min_points) {
+    if (!incidence_cut_chosen_) {
+      est.incidence_cut = choose_incidence_cut(scan);
+    }
     timed(est.timings.register_ms, [&] { register_sweep(sweep, est); });
     last_registered_utime_ = end_utime;
     timed(est.timings.map_ms, [&] {
@@ -546,6 +557,29 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
   finish_estimate(est);
   est.timings.total_ms = watch.ms();
   return est;
+}
+
+std::string LidarInertialOdometry::choose_incidence_cut(const LidarScan& scan) {
+  if (config_.grazing_ring_spacings <= 0.0) {
+    incidence_cut_chosen_ = true;
+    return {};
+  }
+  // Until a sweep shows enough of the horizon (a blocked or empty first view), the
+  // configured cut holds: the safe one for a LiDAR of sparse rings.
+  const std::optional<double> step_rad = largest_elevation_gap_rad(scan.points);
+  if (!step_rad) {
+    return {};
+  }
+  incidence_cut_chosen_ = true;
+  double& cut = config_.registration.min_incidence_cos;
+  cut = std::min(cut, std::max(config_.min_incidence_cos_floor,
+                               std::sin(config_.grazing_ring_spacings * *step_rad)));
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                "elevation steps of up to %.2f deg near the LiDAR's horizon: planes seen at a "
+                "cosine of incidence below %.3f are left out",
+                *step_rad * so3::kRadToDeg, cut);
+  return text;
 }
 
 LidarInertialOdometry::Sweep LidarInertialOdometry::preprocess(const LidarScan& scan,

@@ -106,6 +106,18 @@ struct OdometryConfig {
   // predicted sweep from latching onto wrong planes; a wide one lets a poorly predicted
   // sweep (no IMU, IMU gap, degenerate axis) still find its planes.
   RegistrationConfig registration;
+  // Planes seen more edge-on than registration.min_incidence_cos (0.1) are left out: for the
+  // road that is beyond ~12 m (the simulated LiDAR 1.25 m above it), and a LiDAR that sees
+  // the road only at grazing angles (Mid-360: no ray below -7 degrees) then holds its
+  // height through a ring 2 m wide. Where the LiDAR samples the elevations near its horizon
+  // finely, the first sweep that shows them lowers that cut to sin(grazing_ring_spacings x
+  // the largest elevation step there), never below min_incidence_cos_floor: 0.05 for the Mid-360
+  // and the OS1-64, 0.070 for the HDL-32E, while the VLP-16, rings 2 degrees apart, keeps 0.1:
+  // there the road between two rings goes unsampled for metres, the planes fitted across
+  // rings tilt, and at 0.05 it diverged (docs/odometry.md, "The grazing cut"). 0: the cut
+  // as configured.
+  double grazing_ring_spacings = 3.0;
+  double min_incidence_cos_floor = 0.05;
   double correspondence_sigmas = 3.0;
   double correspondence_lever_m = 10.0;
   double correspondence_cap_m = 2.0;
@@ -300,6 +312,8 @@ struct OdometryConfig {
     v("long_gap_search_m", long_gap_search_m);
     v("map", map);
     v("registration", registration);
+    v("grazing_ring_spacings", grazing_ring_spacings);
+    v("min_incidence_cos_floor", min_incidence_cos_floor);
     v("correspondence_sigmas", correspondence_sigmas);
     v("correspondence_lever_m", correspondence_lever_m);
     v("correspondence_cap_m", correspondence_cap_m);
@@ -381,6 +395,9 @@ class LidarInertialOdometry {
   const NavState& state() const { return x_; }
   const StateMatrix& covariance() const { return P_; }
   size_t map_points() const { return map_.num_points(); }
+  // The cut for planes seen edge-on in effect: registration.min_incidence_cos, lowered once
+  // a sweep shows the LiDAR's horizon (grazing_ring_spacings).
+  double min_incidence_cos() const { return config_.registration.min_incidence_cos; }
 
  private:
   struct HistoryEntry {
@@ -449,6 +466,9 @@ class LidarInertialOdometry {
   // How far the prediction may be off at a point correspondence_lever_m away, at
   // correspondence_sigmas.
   double prediction_reach_m() const;
+  // Lowers registration.min_incidence_cos by the LiDAR's elevation steps near its horizon
+  // (grazing_ring_spacings), once a sweep shows them; says what it chose.
+  std::string choose_incidence_cut(const LidarScan& scan);
   // The same for a pose covariance (translation, rotation).
   double reach_of(const Matrix6d& pose_covariance) const;
   // What the constant-velocity model leaves uncertain in the pose over dt_s (variances,
@@ -567,6 +587,7 @@ class LidarInertialOdometry {
   void set_T_local_body(const Eigen::Isometry3d& T_local_body);
 
   OdometryConfig config_;
+  bool incidence_cut_chosen_ = false;
   Eigen::Isometry3d T_body_lidar_;
   ImuBuffer imu_;
   std::deque<LidarScan> scans_;

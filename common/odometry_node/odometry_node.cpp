@@ -170,6 +170,9 @@ void OdometryNode::publish(const std::vector<OdometryEstimate>& estimates) {
       // Rare (a restart before it) and a jump of the output: always said.
       spdlog::warn("{}: {}", robot_id_, e.reanchored);
     }
+    if (!e.incidence_cut.empty()) {
+      spdlog::info("{}: {}", robot_id_, e.incidence_cut);
+    }
     if (e.extrinsic_check) {
       extrinsic_check_ = e.extrinsic_check->message;
       extrinsic_warned_ = e.extrinsic_check->warn;
