@@ -257,11 +257,11 @@ double chosen_incidence_cut(const std::string& model, double grazing_ring_spacin
 }
 
 TEST(LidarInertialOdometry, LowersTheGrazingCutWhereTheLidarSamplesItsHorizonFinely) {
-  const double kDeg = M_PI / 180.0;
   // VLP-16 rings 2 degrees apart: sin(6 deg) is above the configured 0.1, which stays.
   EXPECT_DOUBLE_EQ(chosen_incidence_cut("vlp16", 3.0), 0.1);
   // HDL-32E: 1.33 degrees.
-  EXPECT_NEAR(chosen_incidence_cut("hdl32", 3.0), std::sin(3.0 * 41.34 / 31.0 * kDeg), 1e-4);
+  EXPECT_NEAR(chosen_incidence_cut("hdl32", 3.0), std::sin(3.0 * 41.34 / 31.0 / so3::kRadToDeg),
+              1e-4);
   // OS1-64 (0.53 degrees) and the Mid-360's non-repetitive pattern: the floor.
   EXPECT_DOUBLE_EQ(chosen_incidence_cut("os1_64", 3.0), 0.05);
   EXPECT_DOUBLE_EQ(chosen_incidence_cut("mid360", 3.0), 0.05);
