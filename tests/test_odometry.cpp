@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <optional>
 #include <random>
 #include <variant>
 
@@ -242,31 +243,45 @@ LidarScan sweep_of(const std::string& model, int64_t index, bool blocked = false
   return scan;
 }
 
-// The cut for planes seen edge-on chosen from one sweep of a simulated model.
-double chosen_incidence_cut(const std::string& model, double grazing_ring_spacings) {
+// The cut for planes seen edge-on chosen from one sweep of a simulated model, with a
+// standing IMU or without one; the ring spacings in use as configured by default.
+double chosen_incidence_cut(const std::string& model, bool use_imu,
+                            std::optional<double> ring_spacings = std::nullopt) {
   OdometryConfig config;
-  config.use_imu = false;
-  config.grazing_ring_spacings = grazing_ring_spacings;
+  config.use_imu = use_imu;
+  double& spacings =
+      use_imu ? config.grazing_ring_spacings : config.grazing_ring_spacings_without_imu;
+  spacings = ring_spacings.value_or(spacings);
   LidarInertialOdometry odometry(config);
+  if (use_imu) {
+    for (int64_t t_us = 300'000; t_us <= 1'200'000; t_us += 5'000) {
+      odometry.add_imu({t_us, Eigen::Vector3d(0.0, 0.0, 9.81), Eigen::Vector3d::Zero()});
+    }
+  }
   odometry.add_scan(sweep_of(model, 0));
   const std::vector<OdometryEstimate> out = odometry.process();
   EXPECT_EQ(out.size(), 1u) << model;
-  EXPECT_EQ(out.empty() || out.front().incidence_cut.empty(), grazing_ring_spacings <= 0.0)
-      << model;
+  EXPECT_EQ(out.empty() || out.front().incidence_cut.empty(), spacings <= 0.0) << model;
   return odometry.min_incidence_cos();
 }
 
 TEST(LidarInertialOdometry, LowersTheGrazingCutWhereTheLidarSamplesItsHorizonFinely) {
-  // VLP-16 rings 2 degrees apart: sin(6 deg) is above the configured 0.1, which stays.
-  EXPECT_DOUBLE_EQ(chosen_incidence_cut("vlp16", 3.0), 0.1);
+  // With the IMU, 3 ring spacings. VLP-16 rings 2 degrees apart: sin(6 deg) is above the
+  // configured 0.1, which stays.
+  EXPECT_DOUBLE_EQ(chosen_incidence_cut("vlp16", true), 0.1);
   // HDL-32E: 1.33 degrees.
-  EXPECT_NEAR(chosen_incidence_cut("hdl32", 3.0), std::sin(3.0 * 41.34 / 31.0 / so3::kRadToDeg),
-              1e-4);
+  const double hdl32_step_rad = 41.34 / 31.0 / so3::kRadToDeg;
+  EXPECT_NEAR(chosen_incidence_cut("hdl32", true), std::sin(3.0 * hdl32_step_rad), 1e-4);
   // OS1-64 (0.53 degrees) and the Mid-360's non-repetitive pattern: the floor.
-  EXPECT_DOUBLE_EQ(chosen_incidence_cut("os1_64", 3.0), 0.05);
-  EXPECT_DOUBLE_EQ(chosen_incidence_cut("mid360", 3.0), 0.05);
+  EXPECT_DOUBLE_EQ(chosen_incidence_cut("os1_64", true), 0.05);
+  EXPECT_DOUBLE_EQ(chosen_incidence_cut("mid360", true), 0.05);
+  // Without it, 4: the HDL-32E's cut nearer the configured one, the finer LiDARs' the floor.
+  EXPECT_NEAR(chosen_incidence_cut("hdl32", false), std::sin(4.0 * hdl32_step_rad), 1e-4);
+  EXPECT_DOUBLE_EQ(chosen_incidence_cut("os1_64", false), 0.05);
+  EXPECT_DOUBLE_EQ(chosen_incidence_cut("vlp16", false), 0.1);
   // 0: the cut as configured.
-  EXPECT_DOUBLE_EQ(chosen_incidence_cut("mid360", 0.0), 0.1);
+  EXPECT_DOUBLE_EQ(chosen_incidence_cut("mid360", true, 0.0), 0.1);
+  EXPECT_DOUBLE_EQ(chosen_incidence_cut("mid360", false, 0.0), 0.1);
 }
 
 TEST(LidarInertialOdometry, KeepsTheConfiguredGrazingCutUntilASweepShowsTheHorizon) {
@@ -623,7 +638,7 @@ TEST(Odometry, LidarOnlyAfterAPauseTheSearchsAnswerIsSettled) {
   };
   const auto drive = [&](double pause_start_s, double settle_after_s) {
     OdometryConfig config = config_for(r, false);
-    config.grazing_ring_spacings = 0.0;
+    config.grazing_ring_spacings_without_imu = 0.0;
     config.search_settle_after_s = settle_after_s;
     LidarInertialOdometry odometry(config);
     const double pause_end_s = pause_start_s + 5.0;

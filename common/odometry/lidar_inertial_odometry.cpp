@@ -113,12 +113,12 @@ void OdometryConfig::validate() const {
         "weak_fit_correspondences must be at least 0 and weak_fit_inlier_ratio in [0, 1) (0: "
         "no check)");
   }
-  if (!(grazing_ring_spacings >= 0) ||
+  if (!(grazing_ring_spacings >= 0) || !(grazing_ring_spacings_without_imu >= 0) ||
       !(min_incidence_cos_floor >= 0 &&
         min_incidence_cos_floor <= registration.min_incidence_cos)) {
     throw std::invalid_argument(
-        "grazing_ring_spacings must be at least 0 (0: the cut as configured) and "
-        "min_incidence_cos_floor in [0, registration.min_incidence_cos]");
+        "grazing_ring_spacings and grazing_ring_spacings_without_imu must be at least 0 (0: the "
+        "cut as configured) and min_incidence_cos_floor in [0, registration.min_incidence_cos]");
   }
   search.validate();
   extrinsic_check.validate();
@@ -560,7 +560,9 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
 }
 
 std::string LidarInertialOdometry::choose_incidence_cut(const LidarScan& scan) {
-  if (config_.grazing_ring_spacings <= 0.0) {
+  const double spacings =
+      config_.use_imu ? config_.grazing_ring_spacings : config_.grazing_ring_spacings_without_imu;
+  if (spacings <= 0.0) {
     incidence_cut_chosen_ = true;
     return {};
   }
@@ -572,8 +574,7 @@ std::string LidarInertialOdometry::choose_incidence_cut(const LidarScan& scan) {
   }
   incidence_cut_chosen_ = true;
   double& cut = config_.registration.min_incidence_cos;
-  cut = std::min(cut, std::max(config_.min_incidence_cos_floor,
-                               std::sin(config_.grazing_ring_spacings * *step_rad)));
+  cut = std::min(cut, std::max(config_.min_incidence_cos_floor, std::sin(spacings * *step_rad)));
   char text[160];
   std::snprintf(text, sizeof(text),
                 "elevation steps of up to %.2f deg near the LiDAR's horizon: planes seen at a "

@@ -73,7 +73,8 @@ struct OdometryEstimate {
   // (OdometryConfig::imu_consistency_nis): by how much. The estimate is still trusted.
   std::string imu_disagreement;
   // Set on the first sweep that shows the LiDAR's horizon: the cut for planes seen edge-on
-  // chosen for this LiDAR (OdometryConfig::grazing_ring_spacings), and from what.
+  // chosen for this LiDAR (OdometryConfig::grazing_ring_spacings, or _without_imu), and
+  // from what.
   std::string incidence_cut;
   // Set on the one estimate where the LiDAR-IMU extrinsic check decided (its message
   // says what it found; `warn` when the configuration looks wrong).
