@@ -275,8 +275,9 @@ TEST(LidarInertialOdometry, LowersTheGrazingCutWhereTheLidarSamplesItsHorizonFin
   // OS1-64 (0.53 degrees) and the Mid-360's non-repetitive pattern: the floor.
   EXPECT_DOUBLE_EQ(chosen_incidence_cut("os1_64", true), 0.05);
   EXPECT_DOUBLE_EQ(chosen_incidence_cut("mid360", true), 0.05);
-  // Without it, 4: the HDL-32E's cut nearer the configured one, the finer LiDARs' the floor.
-  EXPECT_NEAR(chosen_incidence_cut("hdl32", false), std::sin(4.0 * hdl32_step_rad), 1e-4);
+  // Without it, 5: the HDL-32E keeps the configured cut, the finer LiDARs get the floor.
+  EXPECT_DOUBLE_EQ(chosen_incidence_cut("hdl32", false), 0.1);
+  EXPECT_NEAR(chosen_incidence_cut("hdl32", false, 4.0), std::sin(4.0 * hdl32_step_rad), 1e-4);
   EXPECT_DOUBLE_EQ(chosen_incidence_cut("os1_64", false), 0.05);
   EXPECT_DOUBLE_EQ(chosen_incidence_cut("vlp16", false), 0.1);
   // 0: the cut as configured.
