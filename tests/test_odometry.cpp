@@ -244,24 +244,28 @@ LidarScan sweep_of(const std::string& model, int64_t index, bool blocked = false
 }
 
 // The cut for planes seen edge-on chosen from one sweep of a simulated model, with a
-// standing IMU or without one; the ring spacings in use as configured by default.
+// standing IMU or without one; the ring spacings as configured by default, else these
+// (with the IMU and without).
 double chosen_incidence_cut(const std::string& model, bool use_imu,
                             std::optional<double> ring_spacings = std::nullopt) {
   OdometryConfig config;
   config.use_imu = use_imu;
-  double& spacings =
-      use_imu ? config.grazing_ring_spacings : config.grazing_ring_spacings_without_imu;
-  spacings = ring_spacings.value_or(spacings);
+  if (ring_spacings) {
+    config.grazing_ring_spacings = config.grazing_ring_spacings_without_imu = *ring_spacings;
+  }
   LidarInertialOdometry odometry(config);
   if (use_imu) {
     for (int64_t t_us = 300'000; t_us <= 1'200'000; t_us += 5'000) {
-      odometry.add_imu({t_us, Eigen::Vector3d(0.0, 0.0, 9.81), Eigen::Vector3d::Zero()});
+      odometry.add_imu(
+          {t_us, Eigen::Vector3d(0.0, 0.0, config.imu.gravity_mps2), Eigen::Vector3d::Zero()});
     }
   }
   odometry.add_scan(sweep_of(model, 0));
   const std::vector<OdometryEstimate> out = odometry.process();
   EXPECT_EQ(out.size(), 1u) << model;
-  EXPECT_EQ(out.empty() || out.front().incidence_cut.empty(), spacings <= 0.0) << model;
+  EXPECT_EQ(out.empty() || out.front().incidence_cut.empty(),
+            ring_spacings.has_value() && *ring_spacings <= 0.0)
+      << model;
   return odometry.min_incidence_cos();
 }
 

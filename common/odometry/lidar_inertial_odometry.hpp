@@ -116,10 +116,9 @@ struct OdometryConfig {
   // there the road between two rings goes unsampled for metres, the planes fitted across
   // rings tilt, and at 0.05 it diverged (docs/odometry.md, "The grazing cut"). 0: the cut
   // as configured. Without an IMU nothing holds the tilt such planes give (with one, gravity
-  // does), so grazing_ring_spacings_without_imu is used instead: 5 leaves the OS1-64 and the
-  // Mid-360 at the floor and the HDL-32E at 0.1 (at 0.070 its campus C without an IMU
-  // started 1.8 % short and turning 0.3 deg/s away, 0.530 m ATE, 0.173 at 0.1; at 0.093 a
-  // dropped-sweep run ended 2.0 m off, 0.23-0.26 m at 0.070 and 0.1: docs/odometry.md).
+  // does), so grazing_ring_spacings_without_imu is used instead: 5 keeps the HDL-32E at 0.1
+  // and gives the OS1-64 and the Mid-360 the floor (fewer moved HDL-32E runs without an IMU
+  // by up to 2 m; docs/odometry.md).
   double grazing_ring_spacings = 3.0;
   double grazing_ring_spacings_without_imu = 5.0;
   double min_incidence_cos_floor = 0.05;
