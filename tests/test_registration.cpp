@@ -122,6 +122,47 @@ TEST(Registration, CorridorIsDegenerateAndThePriorHoldsIt) {
                                                       static_cast<double>(r.correspondences)));
 }
 
+// A room with a divider 0.3 m thick: the map saw the divider's face at x = 4 from x = 1; the
+// sweep, from x = 7, sees its other face at x = 4.3. Within the association radius that face
+// matches the first's plane and pulls the sweep back, unless the map's view directions
+// show it seen from the other side.
+TEST(Registration, AThinWallsOtherFaceDoesNotPullTheSweep) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::normal_distribution<float> n(0.0f, 0.005f);
+  const auto scene = [&](float divider_x) {
+    std::vector<Eigen::Vector3f> pts;
+    for (int i = 0; i < 1500; ++i) {
+      pts.emplace_back(10.0f * u(rng), 10.0f * u(rng), n(rng));                   // floor
+      pts.emplace_back(10.0f * u(rng), n(rng), 3.0f * u(rng));                    // wall y = 0
+      pts.emplace_back(10.0f * u(rng), 10.0f + n(rng), 3.0f * u(rng));            // wall y = 10
+      pts.emplace_back(divider_x + n(rng), 1.0f + 2.5f * u(rng), 3.0f * u(rng));  // divider
+    }
+    for (int i = 0; i < 300; ++i) {
+      pts.emplace_back(10.0f + n(rng), 10.0f * u(rng), 3.0f * u(rng));  // far wall x = 10
+    }
+    return pts;
+  };
+  VoxelMapConfig map_config;
+  map_config.voxel_m = 0.5;
+  map_config.min_point_spacing_m = 0.05;
+  VoxelHashMap map(map_config);
+  map.insert(scene(4.0f), Eigen::Vector3f(1.0f, 5.0f, 1.5f));
+  const Eigen::Isometry3d T_map_sensor(Eigen::Translation3d(7.0, 5.0, 1.5));
+  const auto source = transformed(scene(4.3f), T_map_sensor.inverse());
+
+  RegistrationConfig config;
+  config.reject_back_faces = false;
+  const RegistrationResult pulled =
+      register_point_to_plane(source, map, T_map_sensor, std::nullopt, config);
+  EXPECT_LT(pulled.T_target_source.translation().x() - 7.0, -0.02);
+  config.reject_back_faces = true;
+  const RegistrationResult kept =
+      register_point_to_plane(source, map, T_map_sensor, std::nullopt, config);
+  EXPECT_TRUE(kept.converged);
+  EXPECT_LT((kept.T_target_source.translation() - T_map_sensor.translation()).norm(), 0.005);
+}
+
 // The information and the steps are over the right perturbation (math/se3.hpp): from the
 // solution moved to T Exp(xi), one Gauss-Newton step comes back by -xi along every axis.
 // The body is yawed 90 degrees and x and y are constrained unequally, so Jacobians in any

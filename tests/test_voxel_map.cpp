@@ -58,6 +58,36 @@ TEST(VoxelHashMap, CapsPointsPerVoxelAndKeepsSpacing) {
   EXPECT_EQ(map.num_voxels(), 1u);
 }
 
+TEST(VoxelHashMap, KeepsTheDirectionEachPointWasSeenFrom) {
+  VoxelMapConfig config;
+  config.voxel_m = 1.0;
+  config.min_point_spacing_m = 0.3;
+  VoxelHashMap map(config);
+  const Eigen::Vector3f near_face(0.2f, 0.2f, 0.2f);
+  const Eigen::Vector3f far_face(0.6f, 0.2f, 0.2f);
+  map.insert({near_face}, Eigen::Vector3f(-5.0f, 0.2f, 0.2f));
+  map.insert({far_face}, Eigen::Vector3f(5.6f, 0.2f, 5.2f));
+  map.insert({Eigen::Vector3f(0.25f, 0.2f, 0.2f)});  // crowded out: spacing, not view
+  EXPECT_EQ(map.num_points(), 2u);
+  const Neighbors<2> n = map.nearest<2>(near_face, 0.5f);
+  ASSERT_EQ(n.count, 2);
+  EXPECT_EQ(n.views[0], ViewDirection(-127, 0, 0));
+  EXPECT_EQ(n.views[1], ViewDirection(90, 0, 90));  // 45 degrees up, rounded
+
+  // Moved into another frame, the views turn with the points; points of unknown view stay so.
+  map.insert({Eigen::Vector3f(0.2f, 0.9f, 0.2f)});
+  VoxelHashMap turned(config);
+  Eigen::Isometry3f T_turned_map = Eigen::Isometry3f::Identity();
+  T_turned_map.rotate(
+      Eigen::AngleAxisf(0.5f * static_cast<float>(EIGEN_PI), Eigen::Vector3f::UnitZ()));
+  T_turned_map.pretranslate(Eigen::Vector3f(10.0f, 0.0f, 0.0f));
+  turned.insert(map, T_turned_map);
+  ASSERT_EQ(turned.num_points(), 3u);
+  EXPECT_EQ(turned.nearest<1>(T_turned_map * near_face, 0.05f).views[0], ViewDirection(0, -127, 0));
+  EXPECT_EQ(turned.nearest<1>(T_turned_map * Eigen::Vector3f(0.2f, 0.9f, 0.2f), 0.05f).views[0],
+            ViewDirection::Zero());
+}
+
 TEST(VoxelHashMap, RemoveFarBoundsTheMap) {
   VoxelMapConfig config;
   config.voxel_m = 1.0;

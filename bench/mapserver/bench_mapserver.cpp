@@ -611,8 +611,7 @@ int main(int argc, char** argv) {
       json.end_object();
     }
     json.end_array().end_object();
-    fs::create_directories(fs::path(json_path).parent_path());
-    std::ofstream(json_path) << json.str() << "\n";
+    json.write_file(json_path);
     return 0;
   });
 }

@@ -18,8 +18,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
-#include <fstream>
 #include <random>
 #include <string>
 
@@ -528,8 +526,7 @@ int main(int argc, char** argv) {
           .end_object();
     }
     json.end_array().end_object();
-    std::filesystem::create_directories(std::filesystem::path(json_path).parent_path());
-    std::ofstream(json_path) << json.str() << "\n";
+    json.write_file(json_path);
     return 0;
   });
 }

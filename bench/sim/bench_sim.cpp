@@ -4,7 +4,6 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 
 #include "app/program.hpp"
 #include "eval/json_writer.hpp"
@@ -100,8 +99,7 @@ int main(int argc, char** argv) {
           .end_object();
     }
     json.end_array().end_object();
-    std::filesystem::create_directories(std::filesystem::path(json_path).parent_path());
-    std::ofstream(json_path) << json.str() << "\n";
+    json.write_file(json_path);
     return 0;
   });
 }

@@ -1116,14 +1116,8 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
   }
   const Eigen::Isometry3d T_old_new = found.result.T_target_source * T_local_body().inverse();
   const Eigen::Isometry3d jump = T_local_body().inverse() * found.result.T_target_source;
-  const Eigen::Isometry3f T_old_new_f = T_old_new.cast<float>();
-  std::vector<Eigen::Vector3f> moved;
-  moved.reserve(new_map_points.size());
-  for (const Eigen::Vector3f& p : new_map_points) {
-    moved.push_back(T_old_new_f * p);
-  }
   VoxelHashMap merged = std::move(anchor_->map);
-  merged.insert(moved);
+  merged.insert(map_, T_old_new.cast<float>());
   move_local_frame(T_old_new, anchor_->first_restart_utime);
   map_ = std::move(merged);
   char text[200];
@@ -1301,7 +1295,7 @@ void LidarInertialOdometry::update_map(const Sweep& sweep) {
     for (const Eigen::Vector3f& p : sweep.points_body) {
       world.push_back(T * p);
     }
-    map_.insert(world);
+    map_.insert(world, (T_local_body() * T_body_lidar_.translation()).cast<float>());
     have_map_insert_ = true;
     last_insert_T_local_body_ = T_local_body();
   }

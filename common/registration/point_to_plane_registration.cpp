@@ -1,6 +1,7 @@
 #include "registration/point_to_plane_registration.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -38,6 +39,29 @@ struct Match {
 
 double cauchy_weight(double r, double scale) { return 1.0 / (1.0 + (r * r) / (scale * scale)); }
 
+// Whether the sensor at sensor_target sees the plane from the side opposite to the one its
+// neighbours were seen from. A direction within kSideCos of the plane decides nothing: the
+// normal of a fitted plane is off by degrees, and the ground seen at a grazing angle (views
+// 5 degrees above it, planes of ring bands tilted by 8) would otherwise be judged seen from
+// below. It stands where at least 3 neighbours decide and none disagrees.
+template <int K>
+bool seen_from_other_side(const Neighbors<K>& n, const Plane& plane, const Eigen::Vector3d& q,
+                          const Eigen::Vector3d& sensor_target) {
+  constexpr double kSideCos = 0.25;  // sin(14.5 deg)
+  int front = 0;
+  int back = 0;
+  for (int k = 0; k < n.count; ++k) {
+    const double side = plane.normal.dot(n.views[k].template cast<double>()) / 127.0;
+    front += side > kSideCos;
+    back += side < -kSideCos;
+  }
+  if (std::min(front, back) > 0 || std::max(front, back) < 3) {
+    return false;
+  }
+  const double query_side = plane.normal.dot((sensor_target - q).normalized());
+  return front > 0 ? query_side < -kSideCos : query_side > kSideCos;
+}
+
 double cauchy_cost(double r, double scale) {
   return 0.5 * scale * scale * std::log1p((r * r) / (scale * scale));
 }
@@ -50,9 +74,11 @@ std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const V
   std::vector<char> valid(source.size(), 0);
   const Eigen::Isometry3f Tf = T.cast<float>();
   const float radius = static_cast<float>(config.max_correspondence_m);
+  const Eigen::Vector3d sensor_target = T * sensor_origin_source;
 #pragma omp parallel for num_threads(config.threads) schedule(static)
   for (size_t i = 0; i < source.size(); ++i) {
-    const Neighbors<kNeighbors> n = map.nearest<kNeighbors>(Tf * source[i], radius);
+    const Eigen::Vector3f q = Tf * source[i];
+    const Neighbors<kNeighbors> n = map.nearest<kNeighbors>(q, radius);
     if (n.count < kNeighbors) {
       continue;
     }
@@ -62,7 +88,9 @@ std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const V
       continue;
     }
     const Eigen::Vector3d ray = (source[i].cast<double>() - sensor_origin_source).normalized();
-    if (std::abs(plane->normal.dot(T.linear() * ray)) < config.min_incidence_cos) {
+    if (std::abs(plane->normal.dot(T.linear() * ray)) < config.min_incidence_cos ||
+        (config.reject_back_faces &&
+         seen_from_other_side(n, *plane, q.cast<double>(), sensor_target))) {
       continue;
     }
     matches[i] = {source[i].cast<double>(), plane->normal, plane->offset,

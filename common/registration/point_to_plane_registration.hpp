@@ -33,6 +33,12 @@ struct RegistrationConfig {
   // A plane seen nearly edge-on (|normal . ray| below this) is not used: along the ray
   // the sensor's own range noise spreads points into false planes (see fit_plane).
   double min_incidence_cos = 0.1;
+  // When true, a point is not matched to a plane whose map points (where the map knows
+  // their view directions) were seen from the other side: within the association radius
+  // the two faces of a thin wall pull the sweep by the wall's thickness. Off by default:
+  // on, four of the odometry's scenario tests fail, not yet understood (docs/odometry.md,
+  // "The other face of a thin wall").
+  bool reject_back_faces = false;
   double point_sigma_m = 0.05;  // point-to-plane noise, sets the information scale
   double convergence_translation_m = 1e-3;
   double convergence_rotation_rad = 1e-4;
@@ -50,6 +56,7 @@ struct RegistrationConfig {
     v("min_planarity", min_planarity);
     v("cauchy_scale_m", cauchy_scale_m);
     v("min_incidence_cos", min_incidence_cos);
+    v("reject_back_faces", reject_back_faces);
     v("point_sigma_m", point_sigma_m);
     v("convergence_translation_m", convergence_translation_m);
     v("convergence_rotation_rad", convergence_rotation_rad);

@@ -27,28 +27,56 @@ Eigen::Vector3i VoxelHashMap::index_of(const Eigen::Vector3f& p) const {
                          static_cast<int>(std::floor(p.z() * inv_voxel_)));
 }
 
+namespace {
+
+ViewDirection quantized(const Eigen::Vector3f& unit) {
+  return (127.0f * unit).array().round().cast<int8_t>();
+}
+
+}  // namespace
+
 void VoxelHashMap::insert(const Eigen::Vector3f* points, size_t count) {
-  const float min_sq =
-      static_cast<float>(config_.min_point_spacing_m * config_.min_point_spacing_m);
   for (size_t k = 0; k < count; ++k) {
-    const Eigen::Vector3f& p = points[k];
-    const auto [index, inserted] = index_.insert(voxel_key(index_of(p)));
-    if (inserted) {
-      voxels_.emplace_back();
-    }
-    Voxel& v = voxels_[index];
-    if (v.count >= config_.max_points_per_voxel) {
-      continue;
-    }
-    bool crowded = false;
-    for (int i = 0; i < v.count && !crowded; ++i) {
-      crowded = (v.points[i] - p).squaredNorm() < min_sq;
-    }
-    if (!crowded) {
-      v.points[v.count++] = p;
-      ++num_points_;
+    insert_one(points[k], ViewDirection::Zero());
+  }
+}
+
+void VoxelHashMap::insert(const std::vector<Eigen::Vector3f>& points,
+                          const Eigen::Vector3f& sensor_origin) {
+  for (const Eigen::Vector3f& p : points) {
+    insert_one(p, quantized((sensor_origin - p).normalized()));
+  }
+}
+
+void VoxelHashMap::insert(const VoxelHashMap& other, const Eigen::Isometry3f& T_this_other) {
+  for (const Voxel& v : other.voxels_) {
+    for (int i = 0; i < v.count; ++i) {
+      const Eigen::Vector3f view = T_this_other.linear() * (v.views[i].cast<float>() / 127.0f);
+      insert_one(T_this_other * v.points[i], quantized(view.normalized()));
     }
   }
+}
+
+void VoxelHashMap::insert_one(const Eigen::Vector3f& p, const ViewDirection& view) {
+  const auto [index, inserted] = index_.insert(voxel_key(index_of(p)));
+  if (inserted) {
+    voxels_.emplace_back();
+  }
+  Voxel& v = voxels_[index];
+  if (v.count >= config_.max_points_per_voxel) {
+    return;
+  }
+  const float min_sq =
+      static_cast<float>(config_.min_point_spacing_m * config_.min_point_spacing_m);
+  for (int i = 0; i < v.count; ++i) {
+    if ((v.points[i] - p).squaredNorm() < min_sq) {
+      return;
+    }
+  }
+  v.points[v.count] = p;
+  v.views[v.count] = view;
+  ++v.count;
+  ++num_points_;
 }
 
 void VoxelHashMap::remove_far(const Eigen::Vector3d& center) {

@@ -5,6 +5,7 @@
 // sensor (remove_far), so that it stays flat over long runs.
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -31,10 +32,15 @@ struct VoxelMapConfig {
   void validate() const;
 };
 
+// The direction from a map point toward the sensor that saw it, as a unit vector times
+// 127; zero where it is not known (points inserted without their sensor).
+using ViewDirection = Eigen::Matrix<int8_t, 3, 1>;
+
 // Up to K nearest map points of a query, nearest first.
 template <int K>
 struct Neighbors {
   std::array<Eigen::Vector3f, K> points;
+  std::array<ViewDirection, K> views;
   std::array<float, K> squared_distances;
   int count = 0;
 };
@@ -49,6 +55,10 @@ class VoxelHashMap {
   // closer than min_point_spacing_m.
   void insert(const std::vector<Eigen::Vector3f>& points) { insert(points.data(), points.size()); }
   void insert(const Eigen::Vector3f* points, size_t count);
+  // The same, for points seen from sensor_origin (map frame): each keeps its view direction.
+  void insert(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3f& sensor_origin);
+  // Adds every point of `other`, moved into this map's frame by T_this_other.
+  void insert(const VoxelHashMap& other, const Eigen::Isometry3f& T_this_other);
 
   // The k nearest points within max_distance_m of q among the 8 voxels around q: exact
   // within voxel_m / 2, approximate beyond.
@@ -68,9 +78,11 @@ class VoxelHashMap {
   struct Voxel {
     int count = 0;
     std::array<Eigen::Vector3f, kMaxPointsPerVoxel> points;
+    std::array<ViewDirection, kMaxPointsPerVoxel> views;
   };
 
   Eigen::Vector3i index_of(const Eigen::Vector3f& p) const;
+  void insert_one(const Eigen::Vector3f& p, const ViewDirection& view);
 
   VoxelMapConfig config_;
   float inv_voxel_;

@@ -40,10 +40,12 @@ Neighbors<K> VoxelHashMap::nearest(const Eigen::Vector3f& q, float max_distance_
       while (j > 0 && result.squared_distances[j - 1] > d) {
         result.squared_distances[j] = result.squared_distances[j - 1];
         result.points[j] = result.points[j - 1];
+        result.views[j] = result.views[j - 1];
         --j;
       }
       result.squared_distances[j] = d;
       result.points[j] = v.points[i];
+      result.views[j] = v.views[i];
       result.count = std::min(result.count + 1, K);
     }
   }
