@@ -2,14 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <functional>
 #include <limits>
 #include <numeric>
 #include <random>
 #include <sstream>
-#include <stdexcept>
 
 #include "eval/eval_report.hpp"
 #include "eval/json_writer.hpp"
@@ -412,35 +409,6 @@ TEST(JsonWriter, WritesNestedDocumentWithNanAsNull) {
             "  ],\n"
             "  \"empty\": {}\n"
             "}\n");
-}
-
-// A bench's --json may name a file in the working directory, or in directories still to be
-// made; a path that cannot be written is an error naming it.
-TEST(JsonWriter, WritesItsFileWhereverThePathPoints) {
-  JsonWriter json;
-  json.begin_object().key("runs").integer(2).end_object();
-  const std::filesystem::path before = std::filesystem::current_path();
-  const std::filesystem::path dir = ::testing::TempDir() + "liloc_json_writer";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  std::filesystem::current_path(dir);
-  json.write_file("bare.json");
-  json.write_file("results/nested/run.json");
-  std::filesystem::current_path(before);
-  for (const char* name : {"bare.json", "results/nested/run.json"}) {
-    std::ifstream in(dir / name);
-    std::stringstream text;
-    text << in.rdbuf();
-    EXPECT_EQ(text.str(), json.str()) << name;
-  }
-  const std::string blocked = (dir / "bare.json" / "run.json").string();
-  try {
-    json.write_file(blocked);
-    ADD_FAILURE() << "no error for " << blocked;
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find(blocked), std::string::npos) << e.what();
-  }
-  std::filesystem::remove_all(dir);
 }
 
 TEST(JsonWriter, RejectsMalformedDocuments) {

@@ -367,6 +367,32 @@ TEST(PoseGraphG2o, InformationIsWrittenInG2oConventionWithTheEdgeKind) {
   EXPECT_EQ(edges[0].kind, PoseGraphEdge::Kind::kLoop);
 }
 
+// A bench's --json may name a file in the working directory, or in directories still to be
+// made (a bare name once made the benches die after their whole run); a path that cannot
+// be written is an error naming it.
+TEST(FileIo, WritesAFileCreatingItsDirectories) {
+  const std::filesystem::path before = std::filesystem::current_path();
+  const std::filesystem::path dir =
+      ::testing::TempDir() + "liloc_storage_results_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  std::filesystem::current_path(dir);
+  write_file_creating_directories("bare.json", "{}\n");
+  write_file_creating_directories("results/nested/run.json", "[]\n");
+  std::filesystem::current_path(before);
+  EXPECT_EQ(read_file((dir / "bare.json").string()), "{}\n");
+  EXPECT_EQ(read_file((dir / "results/nested/run.json").string()), "[]\n");
+  const std::string blocked = (dir / "bare.json" / "run.json").string();
+  try {
+    write_file_creating_directories(blocked, "{}");
+    ADD_FAILURE() << "no error for " << blocked;
+  } catch (const MapError& e) {
+    EXPECT_NE(std::string(e.what()).find((dir / "bare.json").string()), std::string::npos)
+        << e.what();
+  }
+  std::filesystem::remove_all(dir);
+}
+
 TEST(PcdCodec, RejectsTruncatedAndForeignFiles) {
   const std::string bytes = encode_pcd(make_cloud(1, 10));
   EXPECT_TRUE(same_cloud(decode_pcd(bytes, "a.pcd"), make_cloud(1, 10)));

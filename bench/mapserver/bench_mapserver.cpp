@@ -38,6 +38,7 @@
 #include "liloc/status_t.hpp"
 #include "map/submap_database.hpp"
 #include "node/reply_route.hpp"
+#include "storage/file_io.hpp"
 #include "storage/map_store.hpp"
 #include "storage/submap_cloud_files.hpp"
 #include "system/system_config.hpp"
@@ -611,7 +612,7 @@ int main(int argc, char** argv) {
       json.end_object();
     }
     json.end_array().end_object();
-    json.write_file(json_path);
+    storage::write_file_creating_directories(json_path, json.str());
     return 0;
   });
 }

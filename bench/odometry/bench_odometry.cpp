@@ -32,6 +32,7 @@
 #include "sim/lidar_model.hpp"
 #include "sim/session_recipe.hpp"
 #include "sim/simulation_config.hpp"
+#include "storage/file_io.hpp"
 
 namespace {
 using namespace liloc;
@@ -526,7 +527,7 @@ int main(int argc, char** argv) {
           .end_object();
     }
     json.end_array().end_object();
-    json.write_file(json_path);
+    storage::write_file_creating_directories(json_path, json.str());
     return 0;
   });
 }

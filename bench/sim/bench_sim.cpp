@@ -10,6 +10,7 @@
 #include "liloc_sim/session_writer.hpp"
 #include "sim/lidar_model.hpp"
 #include "sim/session_recipe.hpp"
+#include "storage/file_io.hpp"
 
 namespace {
 using namespace liloc;
@@ -99,7 +100,7 @@ int main(int argc, char** argv) {
           .end_object();
     }
     json.end_array().end_object();
-    json.write_file(json_path);
+    storage::write_file_creating_directories(json_path, json.str());
     return 0;
   });
 }

@@ -3,8 +3,6 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <stdexcept>
 
 namespace liloc::eval {
@@ -169,21 +167,6 @@ std::string JsonWriter::str() const {
     throw std::logic_error("JsonWriter: document has an unclosed object or array");
   }
   return out_ + "\n";
-}
-
-void JsonWriter::write_file(const std::string& path) const {
-  const std::string text = str();
-  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
-  std::error_code error;
-  if (!parent.empty()) {
-    std::filesystem::create_directories(parent, error);
-  }
-  std::ofstream out(path);
-  out << text;
-  if (error || !out.flush()) {
-    throw std::runtime_error(path + ": cannot write the result file" +
-                             (error ? " (" + error.message() + ")" : std::string()));
-  }
 }
 
 }  // namespace liloc::eval

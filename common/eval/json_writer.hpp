@@ -28,9 +28,6 @@ class JsonWriter {
 
   // The document; throws std::logic_error if an object or array is still open.
   std::string str() const;
-  // Writes the document to `path`, creating its directory if it has one; throws
-  // std::runtime_error naming the path if it cannot.
-  void write_file(const std::string& path) const;
 
   // `text` as a quoted JSON string literal.
   static std::string quote(const std::string& text);

@@ -147,6 +147,14 @@ void write_file_synced(const std::string& path, std::string_view bytes) {
   }
 }
 
+void write_file_creating_directories(const std::string& path, std::string_view bytes) {
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  if (!parent.empty()) {
+    create_directory_synced(parent.string());
+  }
+  write_file_synced(path, bytes);
+}
+
 void rename_file(const std::string& from, const std::string& to) {
   if (::rename(from.c_str(), to.c_str()) != 0) {
     fail_errno(from, "cannot rename to " + to);

@@ -28,6 +28,10 @@ std::string read_file(const std::string& path);
 // write to a temporary name and rename (see rename_file).
 void write_file_synced(const std::string& path, std::string_view bytes);
 
+// write_file_synced, after creating the directory `path` names (if it names one) with
+// create_directory_synced: a result file written wherever a command line points.
+void write_file_creating_directories(const std::string& path, std::string_view bytes);
+
 // rename(2); the caller fsyncs the parent directory to make it durable.
 void rename_file(const std::string& from, const std::string& to);
 

@@ -17,7 +17,10 @@ void VoxelMapConfig::validate() const {
 }
 
 VoxelHashMap::VoxelHashMap(const VoxelMapConfig& config)
-    : config_(config), inv_voxel_(static_cast<float>(1.0 / config.voxel_m)), index_(1 << 15) {
+    : config_(config),
+      inv_voxel_(static_cast<float>(1.0 / config.voxel_m)),
+      min_spacing_sq_(static_cast<float>(config.min_point_spacing_m * config.min_point_spacing_m)),
+      index_(1 << 15) {
   config_.validate();
 }
 
@@ -66,10 +69,8 @@ void VoxelHashMap::insert_one(const Eigen::Vector3f& p, const ViewDirection& vie
   if (v.count >= config_.max_points_per_voxel) {
     return;
   }
-  const float min_sq =
-      static_cast<float>(config_.min_point_spacing_m * config_.min_point_spacing_m);
   for (int i = 0; i < v.count; ++i) {
-    if ((v.points[i] - p).squaredNorm() < min_sq) {
+    if ((v.points[i] - p).squaredNorm() < min_spacing_sq_) {
       return;
     }
   }

@@ -86,6 +86,7 @@ class VoxelHashMap {
 
   VoxelMapConfig config_;
   float inv_voxel_;
+  float min_spacing_sq_;       // min_point_spacing_m squared, for the insertion of every point
   VoxelIndexTable index_;      // voxel key -> index into voxels_
   std::vector<Voxel> voxels_;  // dense, in index order
   size_t num_points_ = 0;
