@@ -627,15 +627,15 @@ TEST(Odometry, LidarOnlySearchAfterAPauseFindsTheHeight) {
 
 // Without an IMU, a Mid-360 (no ring below -7 degrees) pauses for 5 s: the first sweep
 // after the pause is placed by the search, and that answer is settled with the normal
-// kernel (search_settle_after_s). Where settling moves it (after the pauses from 20 and
-// 33 s; after those from 27, 47 and 55 s it changed nothing, and after the one from 40 s
-// the search itself was refused: a restart), it fits at least as many points and its
-// roll and pitch are nearer the truth: 0.040 against 0.047 and 0.041 against 0.050
-// degrees. What that gains shows where the sweep shares little with
-// the local map, 36 m on at 7 m/s: the full sessions of bench_odometry --timing
-// irregular, docs/odometry.md. The planes seen edge-on are cut at 0.1, as when this was
-// measured: with the Mid-360's own cut (0.05, the road out to 25 m) the sweep after the
-// pause from 20 s has matches enough that settling moves nothing (0.049 degrees either way).
+// kernel (search_settle_after_s). Where settling moves it much (after the pauses from 27
+// and 47 s), it fits at least as many points and its roll and pitch are nearer the truth:
+// 0.119 against 0.189 and 0.014 against 0.024 degrees. (From 15, 20, 33, 50 and 55 s it
+// changed nothing, from 25 and 45 s under 0.003 degrees either way, and after those from
+// 38 and 40 s the search itself was refused: a restart. Measured with back faces refused,
+// registration.reject_back_faces; before, the pauses from 20 and 33 s showed it.) What
+// that gains shows where the sweep shares little with the local map, 36 m on at 7 m/s:
+// the full sessions of bench_odometry --timing irregular, docs/odometry.md. The planes
+// seen edge-on are cut at 0.1, as when this was first measured.
 TEST(Odometry, LidarOnlyAfterAPauseTheSearchsAnswerIsSettled) {
   static const Recording r = record("campus", {}, "mid360");
   struct AfterThePause {
@@ -661,7 +661,7 @@ TEST(Odometry, LidarOnlyAfterAPauseTheSearchsAnswerIsSettled) {
     ADD_FAILURE() << "no sweep after the pause from " << pause_start_s << " s";
     return AfterThePause{};
   };
-  for (const double pause_start_s : {20.0, 33.0}) {
+  for (const double pause_start_s : {27.0, 47.0}) {
     const AfterThePause settled = drive(pause_start_s, 1.0);
     const AfterThePause unsettled = drive(pause_start_s, 1e9);
     EXPECT_GE(settled.inlier_ratio, unsettled.inlier_ratio) << "pause from " << pause_start_s;
@@ -674,13 +674,16 @@ TEST(Odometry, LidarOnlyAfterAPauseTheSearchsAnswerIsSettled) {
 // it registered from the prediction settled 1.6 degrees behind and 3 beyond, fitting
 // 0.14-0.27 m where the drive fits 0.03 m, the local map took them in and the drive kept a
 // 2.9-degree yaw error (bench_odometry --world-seed 2 --lidar mid360 --imu off: 1.1 m ATE).
-// Here the heading jumps by 10 degrees at 20 s (every later sweep turned on the vehicle):
-// registered from the prediction the first sweep after it settles 9 degrees short, and the
+// Here the heading jumps by 15 degrees at 20 s (every later sweep turned on the vehicle):
+// registered from the prediction the first sweep after it stays 15 degrees off, and the
 // drive keeps that for good; searched for, it is found, and after a second of ringing (the
-// jump taken for a rate) the estimate leads the truth by the jump alone.
+// jump taken for a rate) the estimate leads the truth by the jump alone. (A jump of 10
+// degrees, as when this was written, registration now finds by itself within 2 s: with
+// back faces refused, registration.reject_back_faces, the sweep turned by 10 degrees is no
+// longer held by the far sides of walls.)
 TEST(Odometry, LidarOnlyASweepTheMotionModelMissedIsSearchedFor) {
   const Recording& r = campus_drive();
-  const double jump_deg = 10.0;
+  const double jump_deg = 15.0;
   struct YawError {
     double first_deg = -1.0;    // the first sweep after the jump (-1: none)
     double after_2s_deg = 0.0;  // the worst from 2 s after it
@@ -716,11 +719,11 @@ TEST(Odometry, LidarOnlyASweepTheMotionModelMissedIsSearchedFor) {
     return out;
   };
   const YawError searched = yaw_error(OdometryConfig{}.poor_fit_factor);
-  EXPECT_LT(searched.first_deg, 0.5);     // 0.03
-  EXPECT_LT(searched.after_2s_deg, 0.5);  // 0.12
+  EXPECT_LT(searched.first_deg, 0.5);     // 0.04
+  EXPECT_LT(searched.after_2s_deg, 0.5);  // 0.17
   const YawError registered = yaw_error(0.0);
-  EXPECT_GT(registered.first_deg, 5.0);     // 9.0
-  EXPECT_GT(registered.after_2s_deg, 5.0);  // 9.1
+  EXPECT_GT(registered.first_deg, 5.0);     // 15.2
+  EXPECT_GT(registered.after_2s_deg, 5.0);  // 15.3
 }
 
 // A VLP-16 that starts in the open (bench_odometry's campus A of world seed 2): standing,
@@ -1056,24 +1059,40 @@ TEST(Odometry, AGyroFaultIsFoundByTheLidarsOwnMotion) {
 }
 
 // A gyro that stays wrong by 1 rad/s: the LiDAR's own motion carries the drive until the
-// next corner, where it lags as the IMU is off and neither fits. Before, the estimate then
-// drifted at 10 m/s in silence (104 m): the sweeps still matched 50-100 planes, above the
-// weak-fit floor, but put only 13-16 % of their points on the map. Now it says it is lost.
+// next corner, where it lags as the IMU is off. Before, the estimate then drifted at 10 m/s
+// in silence (104 m): the sweeps still matched 50-100 planes, above the weak-fit floor, but
+// put only 13-16 % of their points on the map. With back faces refused they went on
+// fitting the local map turned by 19 degrees at the corner (60 %: 27 m in silence). Now
+// the LiDAR overruling the IMU on most sweeps for 5 s says it is lost (and goes on with the
+// LiDAR's own motion); without that check (and back faces matched, where the fit
+// collapses) the weak fit does, and restarts the local map.
 TEST(Odometry, AGyroWrongForGoodIsReportedLost) {
   const Recording& r = campus_drive();
-  LidarInertialOdometry odometry(config_for(r, true));
-  const Replayed run = replay_with_imu_fault(r, odometry, [](double t, ImuSample& imu) {
-    if (t > 30.0) {
-      imu.gyro_rps.z() += 1.0;
-    }
-  });
-  const auto lost = std::find_if(run.estimates.begin(), run.estimates.end(),
-                                 [](const OdometryEstimate& e) { return !e.lost_reason.empty(); });
-  ASSERT_NE(lost, run.estimates.end());
-  EXPECT_LT(r.seconds(lost->utime_us), 36.0) << lost->lost_reason;
-  EXPECT_NE(lost->lost_reason.find("weak_fit_inlier_ratio"), std::string::npos)
-      << lost->lost_reason;
-  EXPECT_GE(odometry.counters().health_resets, 1);
+  const auto first_lost = [&](const OdometryConfig& config) {
+    LidarInertialOdometry odometry(config);
+    const Replayed run = replay_with_imu_fault(r, odometry, [](double t, ImuSample& imu) {
+      if (t > 30.0) {
+        imu.gyro_rps.z() += 1.0;
+      }
+    });
+    const auto lost = std::find_if(run.estimates.begin(), run.estimates.end(),
+                                   [](const auto& e) { return !e.lost_reason.empty(); });
+    return lost == run.estimates.end()
+               ? std::make_pair(1e9, std::string())
+               : std::make_pair(r.seconds(lost->utime_us), lost->lost_reason);
+  };
+  OdometryConfig config = config_for(r, true);
+  const auto [lasting_s, lasting_reason] = first_lost(config);
+  EXPECT_LT(lasting_s, 36.0) << lasting_reason;
+  EXPECT_NE(lasting_reason.find("imu_fault_fraction"), std::string::npos) << lasting_reason;
+  EXPECT_NE(lasting_reason.find("following the LiDAR's own motion"), std::string::npos)
+      << lasting_reason;
+  config.imu_fault_window_s = 0.0;
+  config.registration.reject_back_faces = false;
+  const auto [weak_s, weak_reason] = first_lost(config);
+  EXPECT_LT(weak_s, 36.0) << weak_reason;
+  EXPECT_NE(weak_reason.find("weak_fit_inlier_ratio"), std::string::npos) << weak_reason;
+  EXPECT_NE(weak_reason.find("the local map restarts"), std::string::npos) << weak_reason;
 }
 
 // A LiDAR whose driver for six seconds decodes garbage (points scattered through the air

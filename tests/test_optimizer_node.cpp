@@ -221,8 +221,10 @@ TEST(OptimizerNode, UnansweredReinitializationIsRepeatedThenGlobal) {
   rig.start(0, 20.0);
   ASSERT_TRUE(rig.run_until([&] { return rig.optimizer->counters().starts == 1; }));
   int64_t id = 1;
-  for (; id <= 10 && rig.optimizer->counters().scan_matched < 3; ++id) {
-    ASSERT_TRUE(rig.drive(id, 20.0 + id, 20.0 + id, 0.2)) << id;  // then the submaps come
+  // Until the submaps come: on a loaded machine (two benchmarks beside ctest) the map
+  // server's submap clouds took 3.4 s, and 10 keyframes 0.2 s apart were too few.
+  for (; id <= 30 && rig.optimizer->counters().scan_matched < 3; ++id) {
+    ASSERT_TRUE(rig.drive(id, 20.0 + id, 20.0 + id, 0.2)) << id;
   }
   ASSERT_GE(rig.optimizer->counters().scan_matched, 3);
   const OptimizerProcessConfig config;

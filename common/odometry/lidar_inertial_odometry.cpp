@@ -113,6 +113,10 @@ void OdometryConfig::validate() const {
         "weak_fit_correspondences must be at least 0 and weak_fit_inlier_ratio in [0, 1) (0: "
         "no check)");
   }
+  if (!(imu_fault_window_s >= 0) || !(imu_fault_fraction > 0 && imu_fault_fraction <= 1)) {
+    throw std::invalid_argument(
+        "imu_fault_window_s must be at least 0 (0: no check) and imu_fault_fraction in (0, 1]");
+  }
   if (!(grazing_ring_spacings >= 0) || !(grazing_ring_spacings_without_imu >= 0) ||
       !(min_incidence_cos_floor >= 0 &&
         min_incidence_cos_floor <= registration.min_incidence_cos)) {
@@ -646,7 +650,8 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
       }
     }
     const bool settle = !config_.use_imu && sweep.unregistered_s() > config_.search_settle_after_s;
-    SearchOutcome found = register_by_search(map_, source, guesses, reach_m, settle);
+    SearchOutcome found =
+        register_by_search(map_, source, SearchSource::kSweep, guesses, reach_m, settle);
     if (!search_accepts(found, false)) {
       // The sweep sees what the local map never did (around a corner, after a long pause):
       // nothing to place it against, so the local map restarts from it at the predicted
@@ -737,6 +742,9 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
   if (!est.standing) {
     recent_fits_.push_back({sweep.end_utime, result.correspondences, est.inlier_ratio});
   }
+  if (config_.use_imu) {
+    recent_imu_verdicts_.emplace_back(sweep.end_utime, !est.imu_disagreement.empty());
+  }
   if (const std::optional<HealthProblem> problem = health_problem(sweep, p_predicted)) {
     est.lost_reason = problem->reason + (problem->local_map_suspect
                                              ? ": the local map restarts at the last trusted pose"
@@ -745,9 +753,30 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
     reset_to(sweep, problem->local_map_suspect);
     // The velocity is now the last trusted one, not this sweep's: the next sweeps correct it.
     imu_distrusted_until_us_ = sweep.end_utime + to_us(config_.imu_distrust_hold_s);
-  } else if (!imu_distrusted(sweep)) {
-    trusted_velocity_ = x_.v;
+  } else {
+    if (!imu_distrusted(sweep)) {
+      trusted_velocity_ = x_.v;
+    }
+    report_lasting_imu_fault(sweep, est);
   }
+}
+
+void LidarInertialOdometry::report_lasting_imu_fault(const Sweep& sweep, OdometryEstimate& est) {
+  const std::optional<double> overruled = imu_overruled_fraction(sweep.end_utime);
+  if (!overruled || *overruled < config_.imu_fault_fraction) {
+    return;
+  }
+  // Said, not reset: the LiDAR's own motion is what carries the estimate now, and the last
+  // trusted velocity is from before the fault (a reset to it every 5 s took a gyro step of
+  // 0.3 rad/s from 1.3 to 215 m).
+  char text[240];
+  std::snprintf(text, sizeof(text),
+                "for %.1f s the LiDAR overruled the IMU on %.0f %% of the sweeps (at least "
+                "imu_fault_fraction %.0f %%): a lasting IMU fault; following the LiDAR's own "
+                "motion",
+                config_.imu_fault_window_s, 100.0 * *overruled, 100.0 * config_.imu_fault_fraction);
+  est.lost_reason = text;
+  recent_imu_verdicts_.clear();  // said again after another full window, not every sweep
 }
 
 RegistrationResult LidarInertialOdometry::register_in_local_map(
@@ -786,7 +815,8 @@ RegistrationResult LidarInertialOdometry::search_poor_fit(
   covariance.diagonal().segment<3>(kRot).array() +=
       std::pow(config_.poor_fit_search_yaw_rad / k, 2);
   const PosePrior wide{prior.T_target_source, covariance.inverse()};
-  SearchOutcome found = register_by_search(map_, source, {wide}, config_.poor_fit_search_m, true);
+  SearchOutcome found = register_by_search(map_, source, SearchSource::kSweep, {wide},
+                                           config_.poor_fit_search_m, true);
   const double before = inlier_ratio(result.T_target_source, source);
   if (!search_accepts(found, false) || found.inlier_ratio <= before) {
     return result;
@@ -1038,6 +1068,22 @@ std::optional<LidarInertialOdometry::WindowFit> LidarInertialOdometry::window_fi
   return WindowFit{median(counts), median(ratios)};
 }
 
+std::optional<double> LidarInertialOdometry::imu_overruled_fraction(int64_t now_us) {
+  const int64_t window_us = to_us(config_.imu_fault_window_s);
+  const bool full =
+      !recent_imu_verdicts_.empty() && now_us - recent_imu_verdicts_.front().first >= window_us;
+  while (!recent_imu_verdicts_.empty() && now_us - recent_imu_verdicts_.front().first > window_us) {
+    recent_imu_verdicts_.pop_front();
+  }
+  constexpr size_t kMinSweeps = 10;
+  if (window_us == 0 || !full || recent_imu_verdicts_.size() < kMinSweeps) {
+    return std::nullopt;
+  }
+  const auto overruled = std::count_if(recent_imu_verdicts_.begin(), recent_imu_verdicts_.end(),
+                                       [](const auto& verdict) { return verdict.second; });
+  return static_cast<double>(overruled) / static_cast<double>(recent_imu_verdicts_.size());
+}
+
 void LidarInertialOdometry::reset_to(const Sweep& sweep, bool restart_map) {
   // Back to the previous sweep's pose and the last trusted velocity, with the uncertainty
   // of a restart: the pose, rotation and velocity forget their correlations; biases and
@@ -1055,6 +1101,7 @@ void LidarInertialOdometry::reset_to(const Sweep& sweep, bool restart_map) {
   P_ = sigma.cwiseAbs2().asDiagonal();
   P_.bottomRightCorner<kStateDim - kBg, kStateDim - kBg>() =
       kept.bottomRightCorner<kStateDim - kBg, kStateDim - kBg>();
+  recent_imu_verdicts_.clear();
   if (restart_map) {
     restart_local_map();
   }
@@ -1106,8 +1153,8 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
   // restart's uncertainty, around the current pose as it would be had the local map
   // restarted at the prediction.
   const PosePrior prior{anchor_->T_predicted_restarted * T_local_body(), anchor_->information};
-  const SearchOutcome found =
-      register_by_search(anchor_->map, source, {prior}, anchor_->reach_m, true);
+  const SearchOutcome found = register_by_search(anchor_->map, source, SearchSource::kLocalMap,
+                                                 {prior}, anchor_->reach_m, true);
   if (!search_accepts(found, true)) {
     if (anchor_->attempts >= config_.reanchor_attempts) {
       anchor_.reset();  // the new local map is the only one from now on
@@ -1169,7 +1216,8 @@ void LidarInertialOdometry::restart_local_map() {
 
 LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
     const VoxelHashMap& target, const std::vector<Eigen::Vector3f>& source,
-    const std::vector<PosePrior>& guesses, double reach_m, bool settle) const {
+    SearchSource source_kind, const std::vector<PosePrior>& guesses, double reach_m,
+    bool settle) const {
   const double half_xy_m = std::min(reach_m, config_.search_max_xy_m);
   // Wider windows in coarser cells: at most 21 x 21 shifts per yaw.
   CorrelativeSearchConfig search = config_.search;
@@ -1204,7 +1252,8 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
   // Each start is within a search cell of its answer, so registration (point-to-plane,
   // Eq. 6) refines it as a well predicted sweep; its guess's wide prior still holds what the
   // scan leaves weak (a street's length).
-  const RegistrationConfig refine = registration_config(search.cell_m);
+  RegistrationConfig refine = registration_config(search.cell_m);
+  refine.reject_back_faces &= source_kind == SearchSource::kSweep;
   const CorrelativeSearch correlative(target.points(), search);
   struct Answer {
     RegistrationResult result;
@@ -1260,7 +1309,6 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
   }
   const double points = static_cast<double>(source.size());
   out.inlier_ratio = best_inliers / points;
-  out.weighted_ratio = out.inlier_ratio * best->prior_density;
   for (const Answer& answer : answers) {
     const double ratio = answer.inliers / points;
     const Eigen::Isometry3d d =
@@ -1270,19 +1318,20 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
       ++out.agreeing_starts;
     } else {
       out.runner_up_ratio = std::max(out.runner_up_ratio, ratio);
-      out.weighted_runner_up = std::max(out.weighted_runner_up, ratio * answer.prior_density);
+      out.weighted_runner_up =
+          std::max(out.weighted_runner_up,
+                   ratio * std::min(1.0, answer.prior_density / best->prior_density));
     }
   }
   return out;
 }
 
 bool LidarInertialOdometry::search_accepts(const SearchOutcome& found, bool weigh_by_prior) const {
-  const double answer = weigh_by_prior ? found.weighted_ratio : found.inlier_ratio;
   const double rival = weigh_by_prior ? found.weighted_runner_up : found.runner_up_ratio;
   return found.inlier_ratio >= config_.search_min_inlier_ratio ||
          (found.inlier_ratio >= config_.search_confirmed_inlier_ratio &&
           found.agreeing_starts >= config_.search_confirming_starts &&
-          rival < config_.search_runner_up_fraction * answer);
+          rival < config_.search_runner_up_fraction * found.inlier_ratio);
 }
 
 void LidarInertialOdometry::update_map(const Sweep& sweep) {

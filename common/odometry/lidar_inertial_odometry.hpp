@@ -202,8 +202,10 @@ struct OdometryConfig {
   // found, the estimate and the new map move onto the old (OdometryEstimate::reanchored).
   // Its rivals are weighed by the restart's prior: one 22 m back and 53 degrees off (2.4
   // sigma) fitting 13 % of the new map must not block the true place's 16 % near the
-  // restart's pose (Mid-360, 1.23 -> 0.15 m). Tried reanchor_attempts times,
-  // reanchor_after_s apart; 0: never.
+  // restart's pose (Mid-360, 1.23 -> 0.15 m). Only discounted, relative to the answer: an
+  // answer 1.6 sigma off fitting 25 % was refused for a rival at the prediction fitting
+  // 5.4 % when the answer was weighed too (a 79-degree turn in a 4 s pause, the scenario
+  // test). Tried reanchor_attempts times, reanchor_after_s apart; 0: never.
   double reanchor_after_s = 1.0;
   int reanchor_attempts = 3;
   // Without an IMU, a degenerate streak this long makes the estimate lost (its reason
@@ -269,6 +271,17 @@ struct OdometryConfig {
   double weak_fit_window_s = 3.0;
   int weak_fit_correspondences = 20;
   double weak_fit_inlier_ratio = 0.3;
+  // With the IMU, lost when over the last imu_fault_window_s the LiDAR overruled the IMU
+  // (OdometryEstimate::imu_disagreement) on at least imu_fault_fraction of the sweeps: a
+  // lasting IMU fault, said (again after each further window) but not reset, since the
+  // LiDAR's own motion carries the estimate. It carries a straight road but not a turn: a
+  // gyro wrong by 1 rad/s for good left 19 degrees of yaw in the local map at the next
+  // corner, and with back faces refused (registration.reject_back_faces) the sweeps went
+  // on fitting that turned map, 60 % of their points, 27 m off in silence. Transient faults
+  // (3 s of a wrong accelerometer, 1 s of a wrong gyro) stay below the fraction and are
+  // outweighed. imu_fault_window_s 0: no such check.
+  double imu_fault_window_s = 5.0;
+  double imu_fault_fraction = 0.8;
   CorrelativeSearchConfig search;
   // Pose corrections are blended in: this fraction of what remains per sweep, at most
   // the step limits, so that the output never jumps.
@@ -361,6 +374,8 @@ struct OdometryConfig {
     v("weak_fit_window_s", weak_fit_window_s);
     v("weak_fit_correspondences", weak_fit_correspondences);
     v("weak_fit_inlier_ratio", weak_fit_inlier_ratio);
+    v("imu_fault_window_s", imu_fault_window_s);
+    v("imu_fault_fraction", imu_fault_fraction);
     v("search", search);
     v("correction_blend", correction_blend);
     v("correction_max_step_m", correction_max_step_m);
@@ -491,18 +506,22 @@ class LidarInertialOdometry {
     double inlier_ratio = 0.0;
     int agreeing_starts = 0;       // starts that converged to the answer
     double runner_up_ratio = 0.0;  // the best answer elsewhere
-    // The same two, each weighed by its guess's prior density exp(-d^2 / 2) (d: the
-    // Mahalanobis distance from the guess).
-    double weighted_ratio = 0.0;
+    // The runner-up discounted by how much less likely its guess's prior makes it than the
+    // answer (the ratio of their densities exp(-d^2 / 2), d: the Mahalanobis distance from
+    // the guess), never raised: the prior decides between answers that fit alike, not
+    // against one that fits several times more points.
     double weighted_runner_up = 0.0;
   };
+  // What the searched points are: one sweep, seen from the LiDAR, or a local map, seen from
+  // wherever the body was (whose points' side of a wall the LiDAR now cannot tell).
+  enum class SearchSource { kSweep, kLocalMap };
   SearchOutcome register_by_search(const VoxelHashMap& target,
                                    const std::vector<Eigen::Vector3f>& source,
-                                   const std::vector<PosePrior>& guesses, double reach_m,
-                                   bool settle) const;
+                                   SearchSource source_kind, const std::vector<PosePrior>& guesses,
+                                   double reach_m, bool settle) const;
   // At least search_min_inlier_ratio, or search_confirmed_inlier_ratio confirmed by
-  // search_confirming_starts with no rival within search_runner_up_fraction of it: by their
-  // inliers, or, with weigh_by_prior, by their inliers times their prior density.
+  // search_confirming_starts with no rival within search_runner_up_fraction of it (with
+  // weigh_by_prior, the rival weighed: SearchOutcome::weighted_runner_up).
   bool search_accepts(const SearchOutcome& found, bool weigh_by_prior) const;
   // The local map of before a restart by a rejected search (reanchor_after_s).
   struct Anchor {
@@ -581,6 +600,12 @@ class LidarInertialOdometry {
     double inlier_ratio = 0.0;
   };
   std::optional<WindowFit> window_fit(int64_t now_us);
+  // The share of the sweeps over the last imu_fault_window_s (if the window is full and
+  // holds at least 10) on which the LiDAR overruled the IMU; drops older verdicts.
+  std::optional<double> imu_overruled_fraction(int64_t now_us);
+  // With the IMU: lost (est.lost_reason, no reset) when the LiDAR overruled the IMU on
+  // imu_fault_fraction of the sweeps over imu_fault_window_s.
+  void report_lasting_imu_fault(const Sweep& sweep, OdometryEstimate& est);
   // Back to the sweep's starting pose with the last trusted velocity (health_problem), and
   // a new local map if restart_map.
   void reset_to(const Sweep& sweep, bool restart_map);
@@ -635,6 +660,9 @@ class LidarInertialOdometry {
     double inlier_ratio = 0.0;  // with the IMU (OdometryEstimate::inlier_ratio)
   };
   std::deque<RecentFit> recent_fits_;
+  // Whether the LiDAR overruled the IMU, per sweep since the last health reset, over the
+  // last imu_fault_window_s (utime, overruled).
+  std::deque<std::pair<int64_t, bool>> recent_imu_verdicts_;
   // The RMS residuals (m) of the last sweeps registered without an IMU (poor_fit_window).
   std::deque<double> recent_fitness_m_;
   // Without an IMU: whether a sweep registered from the prediction with this residual fits

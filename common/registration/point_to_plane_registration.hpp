@@ -35,10 +35,10 @@ struct RegistrationConfig {
   double min_incidence_cos = 0.1;
   // When true, a point is not matched to a plane whose map points (where the map knows
   // their view directions) were seen from the other side: within the association radius
-  // the two faces of a thin wall pull the sweep by the wall's thickness. Off by default:
-  // on, four of the odometry's scenario tests fail, not yet understood (docs/odometry.md,
-  // "The other face of a thin wall").
-  bool reject_back_faces = false;
+  // the two faces of a thin wall pull the sweep by the wall's thickness (Mid-360 after a
+  // 5.1 s gap: 0.13 m; docs/odometry.md, "The other face of a thin wall"). Needs points
+  // seen from one place, the sensor's at sensor_origin_source.
+  bool reject_back_faces = true;
   double point_sigma_m = 0.05;  // point-to-plane noise, sets the information scale
   double convergence_translation_m = 1e-3;
   double convergence_rotation_rad = 1e-4;
