@@ -964,7 +964,8 @@ bool LidarInertialOdometry::fit_collapsed(int64_t now_us, double inlier_ratio) c
       ratios.push_back(fit.inlier_ratio);
     }
   }
-  return ratios.size() >= 10 && inlier_ratio < config_.fit_collapse_fraction * median(ratios);
+  return ratios.size() >= kMinWindowSweeps &&
+         inlier_ratio < config_.fit_collapse_fraction * median(ratios);
 }
 
 double LidarInertialOdometry::inlier_ratio(const Eigen::Isometry3d& T_local_body,
@@ -1055,8 +1056,7 @@ std::optional<LidarInertialOdometry::WindowFit> LidarInertialOdometry::window_fi
     recent_fits_.pop_front();
   }
   // And hold enough sweeps for a median: after a pause of seconds it may hold one.
-  constexpr size_t kMinSweeps = 10;
-  if (!full || recent_fits_.size() < kMinSweeps) {
+  if (!full || recent_fits_.size() < kMinWindowSweeps) {
     return std::nullopt;
   }
   std::vector<int> counts;
@@ -1075,8 +1075,7 @@ std::optional<double> LidarInertialOdometry::imu_overruled_fraction(int64_t now_
   while (!recent_imu_verdicts_.empty() && now_us - recent_imu_verdicts_.front().first > window_us) {
     recent_imu_verdicts_.pop_front();
   }
-  constexpr size_t kMinSweeps = 10;
-  if (window_us == 0 || !full || recent_imu_verdicts_.size() < kMinSweeps) {
+  if (window_us == 0 || !full || recent_imu_verdicts_.size() < kMinWindowSweeps) {
     return std::nullopt;
   }
   const auto overruled = std::count_if(recent_imu_verdicts_.begin(), recent_imu_verdicts_.end(),

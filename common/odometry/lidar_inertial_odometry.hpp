@@ -600,6 +600,9 @@ class LidarInertialOdometry {
     double inlier_ratio = 0.0;
   };
   std::optional<WindowFit> window_fit(int64_t now_us);
+  // The fewest sweeps a window's median or share is taken over (window_fit, fit_collapsed,
+  // imu_overruled_fraction): after a pause of seconds a window may hold one.
+  static constexpr size_t kMinWindowSweeps = 10;
   // The share of the sweeps over the last imu_fault_window_s (if the window is full and
   // holds at least 10) on which the LiDAR overruled the IMU; drops older verdicts.
   std::optional<double> imu_overruled_fraction(int64_t now_us);
