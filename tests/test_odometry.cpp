@@ -587,17 +587,18 @@ TEST(Odometry, LidarOnlyAcrossAPauseTheLastSecondsVelocityIsASecondGuess) {
 // velocity before the pause predicts. The level search keeps the predicted height, and
 // registration from there does not reach the ground; each start's height is searched, so
 // the sweeps after the pause are placed 3.6 m up. (Searched within 1 cm only, they were
-// placed 1.0 m up.)
+// placed 1.0 m up.) Measured against the same drive without the pause: its height drifts
+// 0.31-0.34 m from 20 to 40 s by itself, LiDAR-only, so a fixed bound measured that drift
+// (the search's first answer is 0.08 m off).
 TEST(Odometry, LidarOnlySearchAfterAPauseFindsTheHeight) {
   const Recording& r = campus_drive();
-  const double climb_m = 3.6;
-  // The largest error, after the pause, of the climb the estimate shows.
-  const auto climb_error_m = [&](const OdometryConfig& config) {
+  // The largest error, from 24 to 40 s, of the climb the estimate shows since 20 s.
+  const auto climb_error_m = [&](const OdometryConfig& config, double climb_m) {
     LidarInertialOdometry odometry(config);
     const Replayed run = replay(r, odometry, [&](std::variant<ImuSample, LidarScan>& e) {
       LidarScan* scan = std::get_if<LidarScan>(&e);
       const double t = scan == nullptr ? 0.0 : r.seconds(scan->utime_us);
-      if (t > 20.0 && t < 24.0) {
+      if (climb_m > 0.0 && t > 20.0 && t < 24.0) {
         return false;
       }
       if (t >= 24.0) {
@@ -611,18 +612,19 @@ TEST(Odometry, LidarOnlySearchAfterAPauseFindsTheHeight) {
     for (const OdometryEstimate& e : run.estimates) {
       const double t = r.seconds(e.utime_us);
       const double height_error = run.position_error(r, e).z();
-      if (t < 24.0) {
+      if (t <= 20.0) {
         before = height_error;
-      } else if (t < 40.0) {
+      } else if (t >= 24.0 && t < 40.0) {
         worst = std::max(worst, std::abs(height_error - before - climb_m));
       }
     }
     return worst;
   };
   OdometryConfig config = config_for(r, false);
-  EXPECT_LT(climb_error_m(config), 0.3);
+  const double drift_m = climb_error_m(config, 0.0);
+  EXPECT_LT(climb_error_m(config, 3.6), drift_m + 0.1);
   config.search_max_z_m = 0.01;
-  EXPECT_GT(climb_error_m(config), 1.0);
+  EXPECT_GT(climb_error_m(config, 3.6), drift_m + 0.6);
 }
 
 // Without an IMU, a Mid-360 (no ring below -7 degrees) pauses for 5 s: the first sweep
@@ -1065,7 +1067,11 @@ TEST(Odometry, AGyroFaultIsFoundByTheLidarsOwnMotion) {
 // fitting the local map turned by 19 degrees at the corner (60 %: 27 m in silence). Now
 // the LiDAR overruling the IMU on most sweeps for 5 s says it is lost (and goes on with the
 // LiDAR's own motion); without that check (and back faces matched, where the fit
-// collapses) the weak fit does, and restarts the local map.
+// collapses) the weak fit does, and restarts the local map. Since back faces near their
+// plane are matched (registration.back_face_min_offset_m) this drive's fit collapses
+// again: with the defaults the weak fit says it first, and the LiDAR's own motion no longer
+// fits better, so the lasting-fault check alone would stay silent here. That check is
+// driven by the smaller step of the next test, where the fit holds.
 TEST(Odometry, AGyroWrongForGoodIsReportedLost) {
   const Recording& r = campus_drive();
   const auto first_lost = [&](const OdometryConfig& config) {
@@ -1082,17 +1088,48 @@ TEST(Odometry, AGyroWrongForGoodIsReportedLost) {
                : std::make_pair(r.seconds(lost->utime_us), lost->lost_reason);
   };
   OdometryConfig config = config_for(r, true);
-  const auto [lasting_s, lasting_reason] = first_lost(config);
-  EXPECT_LT(lasting_s, 36.0) << lasting_reason;
-  EXPECT_NE(lasting_reason.find("imu_fault_fraction"), std::string::npos) << lasting_reason;
-  EXPECT_NE(lasting_reason.find("following the LiDAR's own motion"), std::string::npos)
-      << lasting_reason;
+  const auto [first_s, first_reason] = first_lost(config);
+  EXPECT_LT(first_s, 36.0) << first_reason;
   config.imu_fault_window_s = 0.0;
   config.registration.reject_back_faces = false;
   const auto [weak_s, weak_reason] = first_lost(config);
   EXPECT_LT(weak_s, 36.0) << weak_reason;
   EXPECT_NE(weak_reason.find("weak_fit_inlier_ratio"), std::string::npos) << weak_reason;
   EXPECT_NE(weak_reason.find("the local map restarts"), std::string::npos) << weak_reason;
+}
+
+// A gyro that steps by 0.3 rad/s for good, as a bias step would: the LiDAR overrules the
+// IMU until the lasting-fault check reports it, and the report reopens the gyro bias's
+// covariance, so the next sweeps learn the step (imu_fault_gyro_bias_sigma_rps). While the
+// IMU is distrusted the biases are only considered, so with the bias kept it is never
+// learned: here 0.89 m ATE against 0.130 m with it learned, and HDL-32E campus A
+// (bench_odometry --imu-fault gyro,0.3,30,1000) 196.5 m against 0.050 m.
+TEST(Odometry, AGyroStepThatStaysIsLearnedAsItsBias) {
+  const Recording& r = campus_drive();
+  const auto drive = [&](const OdometryConfig& config) {
+    LidarInertialOdometry odometry(config);
+    const Replayed run = replay_with_imu_fault(r, odometry, [](double t, ImuSample& imu) {
+      if (t > 30.0) {
+        imu.gyro_rps.z() += 0.3;
+      }
+    });
+    const auto lost = std::find_if(run.estimates.begin(), run.estimates.end(),
+                                   [](const auto& e) { return !e.lost_reason.empty(); });
+    EXPECT_NE(lost, run.estimates.end());
+    return std::make_tuple(run.metrics(r).ate_position_rmse_m,
+                           odometry.state().bg.z() - r.gyro_bias.z(),
+                           lost == run.estimates.end() ? std::string() : lost->lost_reason);
+  };
+  OdometryConfig config = config_for(r, true);
+  const auto [learned_ate_m, learned_step_rps, reason] = drive(config);
+  EXPECT_NE(reason.find("a lasting IMU fault"), std::string::npos) << reason;
+  EXPECT_NE(reason.find("the gyro bias is learned again"), std::string::npos) << reason;
+  EXPECT_NEAR(learned_step_rps, 0.3, 0.01);
+  EXPECT_LT(learned_ate_m, 0.3);  // the clean drive's bound
+  config.imu_fault_gyro_bias_sigma_rps = 0.0;
+  const auto [kept_ate_m, kept_step_rps, kept_reason] = drive(config);
+  EXPECT_LT(kept_step_rps, 0.2);
+  EXPECT_GT(kept_ate_m, 0.5);
 }
 
 // A LiDAR whose driver for six seconds decodes garbage (points scattered through the air

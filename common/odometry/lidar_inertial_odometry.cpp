@@ -117,6 +117,9 @@ void OdometryConfig::validate() const {
     throw std::invalid_argument(
         "imu_fault_window_s must be at least 0 (0: no check) and imu_fault_fraction in (0, 1]");
   }
+  if (!(imu_fault_gyro_bias_sigma_rps >= 0)) {
+    throw std::invalid_argument("imu_fault_gyro_bias_sigma_rps must be at least 0 (0: kept)");
+  }
   if (!(grazing_ring_spacings >= 0) || !(grazing_ring_spacings_without_imu >= 0) ||
       !(min_incidence_cos_floor >= 0 &&
         min_incidence_cos_floor <= registration.min_incidence_cos)) {
@@ -463,6 +466,9 @@ RegistrationConfig LidarInertialOdometry::registration_config(double radius_m) c
         std::max(out.cauchy_scale_m, config_.kernel_fraction * out.max_correspondence_m);
     out.max_iterations = std::max(out.max_iterations, config_.uncertain_iterations);
     out.max_associations = std::max(out.max_associations, config_.uncertain_iterations);
+    // A start this uncertain puts a thin wall's other face anywhere near the plane: only
+    // the views tell the faces apart.
+    out.back_face_min_offset_m = 0.0;
   }
   return out;
 }
@@ -777,6 +783,17 @@ void LidarInertialOdometry::report_lasting_imu_fault(const Sweep& sweep, Odometr
                 config_.imu_fault_window_s, 100.0 * *overruled, 100.0 * config_.imu_fault_fraction);
   est.lost_reason = text;
   recent_imu_verdicts_.clear();  // said again after another full window, not every sweep
+  if (config_.imu_fault_gyro_bias_sigma_rps > 0.0) {
+    // Learned by the next sweeps' updates (the rotation's innovation over the sweep, Eq. 5):
+    // their prediction's rotation widens with the bias's sigma, so the IMU passes the
+    // consistency test again and the update reaches the biases.
+    P_.middleRows<3>(kBg).setZero();
+    P_.middleCols<3>(kBg).setZero();
+    P_.block<3, 3>(kBg, kBg) =
+        Eigen::Matrix3d::Identity() * std::pow(config_.imu_fault_gyro_bias_sigma_rps, 2);
+    imu_distrusted_until_us_ = sweep.end_utime;
+    est.lost_reason += "; the gyro bias is learned again";
+  }
 }
 
 RegistrationResult LidarInertialOdometry::register_in_local_map(

@@ -43,11 +43,15 @@ double cauchy_weight(double r, double scale) { return 1.0 / (1.0 + (r * r) / (sc
 // neighbours were seen from. A direction within kSideCos of the plane decides nothing: the
 // normal of a fitted plane is off by degrees, and the ground seen at a grazing angle (views
 // 5 degrees above it, planes of ring bands tilted by 8) would otherwise be judged seen from
-// below. It stands where at least 3 neighbours decide and none disagrees.
+// below. It stands where at least 3 neighbours decide and none disagrees, and where q lies
+// at least min_offset_m off the plane.
 template <int K>
 bool seen_from_other_side(const Neighbors<K>& n, const Plane& plane, const Eigen::Vector3d& q,
-                          const Eigen::Vector3d& sensor_target) {
+                          const Eigen::Vector3d& sensor_target, double min_offset_m) {
   constexpr double kSideCos = 0.25;  // sin(14.5 deg)
+  if (std::abs(plane.normal.dot(q) + plane.offset) < min_offset_m) {
+    return false;
+  }
   int front = 0;
   int back = 0;
   for (int k = 0; k < n.count; ++k) {
@@ -90,7 +94,8 @@ std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const V
     const Eigen::Vector3d ray = (source[i].cast<double>() - sensor_origin_source).normalized();
     if (std::abs(plane->normal.dot(T.linear() * ray)) < config.min_incidence_cos ||
         (config.reject_back_faces &&
-         seen_from_other_side(n, *plane, q.cast<double>(), sensor_target))) {
+         seen_from_other_side(n, *plane, q.cast<double>(), sensor_target,
+                              config.back_face_min_offset_m))) {
       continue;
     }
     matches[i] = {source[i].cast<double>(), plane->normal, plane->offset,
@@ -189,6 +194,9 @@ void RegistrationConfig::validate() const {
   }
   if (!(min_planarity >= 0 && min_planarity <= 1)) {
     throw std::invalid_argument("min_planarity must lie in [0, 1]");
+  }
+  if (!(back_face_min_offset_m >= 0)) {
+    throw std::invalid_argument("back_face_min_offset_m must be at least 0");
   }
 }
 
