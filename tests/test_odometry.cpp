@@ -1069,9 +1069,9 @@ TEST(Odometry, AGyroFaultIsFoundByTheLidarsOwnMotion) {
 // LiDAR's own motion); without that check (and back faces matched, where the fit
 // collapses) the weak fit does, and restarts the local map. Since back faces near their
 // plane are matched (registration.back_face_min_offset_m) this drive's fit collapses
-// again: with the defaults the weak fit says it first, and the LiDAR's own motion no longer
-// fits better, so the lasting-fault check alone would stay silent here. That check is
-// driven by the smaller step of the next test, where the fit holds.
+// again: with the defaults the weak fit says it first, and with the weak fit off nothing
+// said it (the LiDAR overruled the IMU on fewer than 80 % of the sweeps; not traced). The
+// lasting-fault check is driven by the smaller step of the next test, where the fit holds.
 TEST(Odometry, AGyroWrongForGoodIsReportedLost) {
   const Recording& r = campus_drive();
   const auto first_lost = [&](const OdometryConfig& config) {
