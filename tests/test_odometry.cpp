@@ -390,6 +390,13 @@ struct Replayed {
   eval::TrajectoryMetrics metrics(const Recording& r) const {
     return eval::evaluate_trajectory(r.ground_truth, trajectory(), eval::EvalConfig{});
   }
+  // The first estimate that says it is lost, or nullptr.
+  const OdometryEstimate* first_lost() const {
+    const auto lost =
+        std::find_if(estimates.begin(), estimates.end(),
+                     [](const OdometryEstimate& e) { return !e.lost_reason.empty(); });
+    return lost == estimates.end() ? nullptr : &*lost;
+  }
   // The odometry frame in the truth's, the two aligned at the first estimate.
   Eigen::Isometry3d T_truth_odom(const Recording& r) const {
     return *r.ground_truth.at(estimates.front().utime_us * 1e-6, 0.5);
@@ -454,6 +461,16 @@ Replayed replay_with_imu_fault(const Recording& r, LidarInertialOdometry& odomet
       fault(r.seconds(imu->utime_us), *imu);
     }
     return true;
+  });
+}
+
+// Replays with the gyro's z reading off by step_rps from 30 s to the end.
+Replayed replay_with_gyro_step(const Recording& r, LidarInertialOdometry& odometry,
+                               double step_rps) {
+  return replay_with_imu_fault(r, odometry, [step_rps](double t, ImuSample& imu) {
+    if (t > 30.0) {
+      imu.gyro_rps.z() += step_rps;
+    }
   });
 }
 
@@ -816,9 +833,8 @@ TEST(Odometry, ASweepThatFitsNothingRestartsTheLocalMapAndSaysSo) {
     return true;
   });
   EXPECT_GE(odometry.counters().map_restarts, 1);
-  const auto lost = std::find_if(run.estimates.begin(), run.estimates.end(),
-                                 [](const OdometryEstimate& e) { return !e.lost_reason.empty(); });
-  ASSERT_NE(lost, run.estimates.end());
+  const OdometryEstimate* lost = run.first_lost();
+  ASSERT_NE(lost, nullptr);
   EXPECT_NEAR(r.seconds(lost->utime_us), 22.1, 0.2) << lost->lost_reason;
   EXPECT_NE(lost->lost_reason.find("the local map restarts"), std::string::npos);
   run.expect_moves_as_truth(r, 30.0, 60.0);
@@ -989,9 +1005,8 @@ TEST(Odometry, AnImplausibleSpeedResetsToTheLastTrustedStateInTheSameMap) {
   });
   EXPECT_GE(odometry.counters().health_resets, 1);
   EXPECT_EQ(odometry.counters().map_restarts, 0);
-  const auto lost = std::find_if(run.estimates.begin(), run.estimates.end(),
-                                 [](const OdometryEstimate& e) { return !e.lost_reason.empty(); });
-  ASSERT_NE(lost, run.estimates.end());
+  const OdometryEstimate* lost = run.first_lost();
+  ASSERT_NE(lost, nullptr);
   EXPECT_NEAR(r.seconds(lost->utime_us), 30.1, 0.15) << lost->lost_reason;
   EXPECT_NE(lost->lost_reason.find("last trusted pose and velocity"), std::string::npos)
       << lost->lost_reason;
@@ -1076,16 +1091,10 @@ TEST(Odometry, AGyroWrongForGoodIsReportedLost) {
   const Recording& r = campus_drive();
   const auto first_lost = [&](const OdometryConfig& config) {
     LidarInertialOdometry odometry(config);
-    const Replayed run = replay_with_imu_fault(r, odometry, [](double t, ImuSample& imu) {
-      if (t > 30.0) {
-        imu.gyro_rps.z() += 1.0;
-      }
-    });
-    const auto lost = std::find_if(run.estimates.begin(), run.estimates.end(),
-                                   [](const auto& e) { return !e.lost_reason.empty(); });
-    return lost == run.estimates.end()
-               ? std::make_pair(1e9, std::string())
-               : std::make_pair(r.seconds(lost->utime_us), lost->lost_reason);
+    const Replayed run = replay_with_gyro_step(r, odometry, 1.0);
+    const OdometryEstimate* lost = run.first_lost();
+    return lost == nullptr ? std::make_pair(1e9, std::string())
+                           : std::make_pair(r.seconds(lost->utime_us), lost->lost_reason);
   };
   OdometryConfig config = config_for(r, true);
   const auto [first_s, first_reason] = first_lost(config);
@@ -1108,17 +1117,12 @@ TEST(Odometry, AGyroStepThatStaysIsLearnedAsItsBias) {
   const Recording& r = campus_drive();
   const auto drive = [&](const OdometryConfig& config) {
     LidarInertialOdometry odometry(config);
-    const Replayed run = replay_with_imu_fault(r, odometry, [](double t, ImuSample& imu) {
-      if (t > 30.0) {
-        imu.gyro_rps.z() += 0.3;
-      }
-    });
-    const auto lost = std::find_if(run.estimates.begin(), run.estimates.end(),
-                                   [](const auto& e) { return !e.lost_reason.empty(); });
-    EXPECT_NE(lost, run.estimates.end());
+    const Replayed run = replay_with_gyro_step(r, odometry, 0.3);
+    const OdometryEstimate* lost = run.first_lost();
+    EXPECT_NE(lost, nullptr);
     return std::make_tuple(run.metrics(r).ate_position_rmse_m,
                            odometry.state().bg.z() - r.gyro_bias.z(),
-                           lost == run.estimates.end() ? std::string() : lost->lost_reason);
+                           lost == nullptr ? std::string() : lost->lost_reason);
   };
   OdometryConfig config = config_for(r, true);
   const auto [learned_ate_m, learned_step_rps, reason] = drive(config);
@@ -1154,9 +1158,8 @@ TEST(Odometry, SweepsThatMatchAlmostNothingAreReportedLost) {
     }
     return true;
   });
-  const auto lost = std::find_if(run.estimates.begin(), run.estimates.end(),
-                                 [](const OdometryEstimate& e) { return !e.lost_reason.empty(); });
-  ASSERT_NE(lost, run.estimates.end());
+  const OdometryEstimate* lost = run.first_lost();
+  ASSERT_NE(lost, nullptr);
   // The median turns when half the window is garbage.
   EXPECT_NEAR(r.seconds(lost->utime_us), 31.6, 0.4) << lost->lost_reason;
   EXPECT_NE(lost->lost_reason.find("planes of the local map"), std::string::npos)
