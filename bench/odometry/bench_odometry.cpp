@@ -95,6 +95,7 @@ struct Run {
   int64_t reanchors = 0;
   int64_t poor_fits_searched = 0;
   int64_t poor_fits_moved = 0;
+  int64_t poor_fits_deskewed = 0;
   int64_t lost_scans = 0;
   int64_t health_resets = 0;
   int64_t imu_disagreements = 0;
@@ -283,6 +284,7 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   run.reanchors = odometry.counters().reanchors;
   run.poor_fits_searched = odometry.counters().poor_fits_searched;
   run.poor_fits_moved = odometry.counters().poor_fits_moved;
+  run.poor_fits_deskewed = odometry.counters().poor_fits_deskewed;
   run.lost_scans = odometry.counters().lost_scans;
   run.health_resets = odometry.counters().health_resets;
   run.imu_disagreements = odometry.counters().imu_disagreements;
@@ -329,8 +331,11 @@ void print_row(const Run& r) {
       stderr, "%s %s %s IMU fault %s: %lld health resets, %lld sweeps contradicting the IMU\n",
       r.world.c_str(), r.lidar.c_str(), r.session.c_str(), r.imu_fault.c_str(),
       static_cast<long long>(r.health_resets), static_cast<long long>(r.imu_disagreements));
-  std::fprintf(stderr, "%s %s %s: %lld sweeps fitting far worse searched again, %lld moved\n",
+  std::fprintf(stderr,
+               "%s %s %s: %lld sweeps fitting worse deskewed again, %lld fitting far worse "
+               "searched again, %lld moved\n",
                r.world.c_str(), r.lidar.c_str(), r.session.c_str(),
+               static_cast<long long>(r.poor_fits_deskewed),
                static_cast<long long>(r.poor_fits_searched),
                static_cast<long long>(r.poor_fits_moved));
 }
@@ -518,6 +523,8 @@ int main(int argc, char** argv) {
           .integer(r.poor_fits_searched)
           .key("poor_fits_moved")
           .integer(r.poor_fits_moved)
+          .key("poor_fits_deskewed")
+          .integer(r.poor_fits_deskewed)
           .key("imu_fault")
           .string(r.imu_fault)
           .key("accel_bias_error_mps2")

@@ -93,10 +93,13 @@ void OdometryConfig::validate() const {
   if (reanchor_attempts < 0) {
     throw std::invalid_argument("reanchor_attempts must be at least 0 (0: never)");
   }
-  if (!(poor_fit_factor >= 0) || !(poor_fit_floor_m >= 0) || poor_fit_window < 2) {
+  if (!(poor_fit_factor >= 0) || !(poor_fit_floor_m >= 0) || poor_fit_window < 2 ||
+      !(poor_fit_deskew_factor >= 1) || !(poor_fit_deskew_floor_m >= 0) ||
+      poor_fit_deskew_passes < 0) {
     throw std::invalid_argument(
-        "poor_fit_factor (0: never) and poor_fit_floor_m must be at least 0, poor_fit_window at "
-        "least 2");
+        "poor_fit_factor (0: never), poor_fit_floor_m, poor_fit_deskew_floor_m and "
+        "poor_fit_deskew_passes must be at least 0, poor_fit_deskew_factor at least 1, "
+        "poor_fit_window at least 2");
   }
   if (!(imu_consistency_nis >= 0) || imu_distrust_doublings < 0) {
     throw std::invalid_argument(
@@ -364,15 +367,21 @@ MotionProfile LidarInertialOdometry::constant_twist_motion(const Eigen::Isometry
   return motion;
 }
 
-Vector6d LidarInertialOdometry::measured_twist(const Sweep& sweep) const {
+Vector6d LidarInertialOdometry::twist_to(const Sweep& sweep,
+                                         const Eigen::Isometry3d& T_local_body) {
   // The velocity over the time since the previous sweep's end, which the prediction
   // covered: not the sweep's own duration (scans spaced irregularly, dropped sweeps).
   const Eigen::Isometry3d& T_prev = sweep.T_local_body_before;
   const double dt = std::max(sweep.gap_s(), 1e-3);
   Vector6d twist;
-  twist.head<3>() = T_prev.linear().transpose() * (x_.p - T_prev.translation()) / dt;
-  twist.tail<3>() = so3::log(T_prev.linear().transpose() * x_.R) / dt;
+  twist.head<3>() =
+      T_prev.linear().transpose() * (T_local_body.translation() - T_prev.translation()) / dt;
+  twist.tail<3>() = so3::log(T_prev.linear().transpose() * T_local_body.linear()) / dt;
   return twist;
+}
+
+Vector6d LidarInertialOdometry::measured_twist(const Sweep& sweep) const {
+  return twist_to(sweep, T_local_body());
 }
 
 void LidarInertialOdometry::update_twist(const Sweep& sweep) {
@@ -693,8 +702,17 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
     result = register_in_local_map(source, prior.T_target_source, prior,
                                    std::min(reach_m, config_.correspondence_cap_m));
     result = outweigh_imu(sweep, source, prior, reach_m, std::move(result), est);
-    if (!config_.use_imu && fits_far_worse(result.rms_residual_m)) {
-      result = search_poor_fit(source, prior, std::move(result));
+    if (!config_.use_imu) {
+      const std::optional<double> usual_m = usual_fit_m();
+      if (config_.poor_fit_deskew_passes > 0 && usual_m &&
+          result.rms_residual_m > std::max(config_.poor_fit_deskew_floor_m,
+                                           config_.poor_fit_deskew_factor * *usual_m)) {
+        result = deskew_poor_fit(sweep, prior, std::min(reach_m, config_.correspondence_cap_m),
+                                 std::move(result));
+      }
+      if (fits_far_worse(result.rms_residual_m)) {
+        result = search_poor_fit(registration_points(sweep.points_body), prior, std::move(result));
+      }
     }
   }
   const Eigen::Vector3d p_predicted = x_.p;
@@ -804,22 +822,62 @@ RegistrationResult LidarInertialOdometry::register_in_local_map(
                                  registration_config(radius_m), T_body_lidar_.translation());
 }
 
-bool LidarInertialOdometry::fits_far_worse(double rms_residual_m) {
-  if (config_.poor_fit_factor <= 0.0) {
-    return false;
+std::optional<double> LidarInertialOdometry::usual_fit_m() const {
+  if (static_cast<int>(recent_fitness_m_.size()) < config_.poor_fit_window / 2) {
+    return std::nullopt;
   }
-  if (static_cast<int>(recent_fitness_m_.size()) >= config_.poor_fit_window / 2) {
-    std::vector<double> fits_m(recent_fitness_m_.begin(), recent_fitness_m_.end());
-    if (rms_residual_m >
-        std::max(config_.poor_fit_floor_m, config_.poor_fit_factor * median(fits_m))) {
-      return true;
+  std::vector<double> fits_m(recent_fitness_m_.begin(), recent_fitness_m_.end());
+  return median(fits_m);
+}
+
+bool LidarInertialOdometry::fits_far_worse(double rms_residual_m) {
+  const std::optional<double> usual_m = usual_fit_m();
+  const bool far_worse =
+      config_.poor_fit_factor > 0.0 && usual_m &&
+      rms_residual_m > std::max(config_.poor_fit_floor_m, config_.poor_fit_factor * *usual_m);
+  if (!far_worse) {
+    recent_fitness_m_.push_back(rms_residual_m);
+    while (static_cast<int>(recent_fitness_m_.size()) > config_.poor_fit_window) {
+      recent_fitness_m_.pop_front();
     }
   }
-  recent_fitness_m_.push_back(rms_residual_m);
-  while (static_cast<int>(recent_fitness_m_.size()) > config_.poor_fit_window) {
-    recent_fitness_m_.pop_front();
+  return far_worse;
+}
+
+RegistrationResult LidarInertialOdometry::deskew_poor_fit(Sweep& sweep, const PosePrior& prior,
+                                                          double radius_m,
+                                                          RegistrationResult result) {
+  // The sweep was deskewed with the previous sweep's twist; where the rate changed within
+  // it (a turn's end or start) its points are warped, and the best rigid fit of a warped
+  // sweep lies between the prediction and the truth. Deskewed again along the motion from
+  // the previous sweep's end to the pose just registered, each pass takes part of the way
+  // to the motion the sweep saw. The pass that fits best is kept: where the previous
+  // sweep's pose is itself off, the passes walk on past the best.
+  if (sweep.gap_s() > config_.max_rotation_extrapolation_s) {
+    return result;
   }
-  return false;
+  const double first_rms_m = result.rms_residual_m;
+  // A tighter fit of fewer points is no better.
+  const double first_inliers =
+      inlier_ratio(result.T_target_source, registration_points(sweep.points_body));
+  Eigen::Isometry3d T_local_body = result.T_target_source;
+  for (int pass = 0; pass < config_.poor_fit_deskew_passes; ++pass) {
+    MotionProfile motion = constant_twist_motion(sweep.T_local_body_before, sweep.utime_before,
+                                                 sweep.end_utime, twist_to(sweep, T_local_body));
+    std::vector<Eigen::Vector3f> points =
+        deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, motion, T_body_lidar_);
+    const std::vector<Eigen::Vector3f> source = registration_points(points);
+    RegistrationResult again = register_in_local_map(source, T_local_body, prior, radius_m);
+    T_local_body = again.T_target_source;
+    if (again.rms_residual_m < result.rms_residual_m &&
+        inlier_ratio(again.T_target_source, source) >= first_inliers) {
+      sweep.motion = std::move(motion);
+      sweep.points_body = std::move(points);
+      result = std::move(again);
+    }
+  }
+  counters_.poor_fits_deskewed += result.rms_residual_m < first_rms_m ? 1 : 0;
+  return result;
 }
 
 RegistrationResult LidarInertialOdometry::search_poor_fit(

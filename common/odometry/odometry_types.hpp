@@ -111,6 +111,9 @@ struct OdometryCounters {
   // and of those, placed elsewhere by the search.
   int64_t poor_fits_searched = 0;
   int64_t poor_fits_moved = 0;
+  // Without an IMU: fit worse than the sweeps before and deskewed again, fitting better
+  // (poor_fit_deskew_factor).
+  int64_t poor_fits_deskewed = 0;
   int64_t lost_scans = 0;        // estimates with a lost_reason
   int64_t standstill_scans = 0;  // zero-velocity updates applied
   int64_t keyframes = 0;

@@ -131,13 +131,13 @@ bool OdometryNode::finish() {
       "done: {} sweeps processed ({} received, {} out of order, {} too small, {} "
       "before init, {} without IMU, {} failed), {} keyframes, {} degenerate, {} searched after "
       "a pause ({} around a second guess), {} lost ({} local-map restarts, {} health resets, "
-      "{} found again), {} contradicting the IMU, {} fitting far worse searched again ({} "
-      "moved); {} messages refused at the door, {} restarts",
+      "{} found again), {} contradicting the IMU, {} fitting worse deskewed again, {} fitting "
+      "far worse searched again ({} moved); {} messages refused at the door, {} restarts",
       c.scans_processed, c.scans_received, c.scans_out_of_order, c.scans_too_small,
       c.scans_before_init, c.scans_without_imu, c.scans_failed, c.keyframes, c.degenerate_scans,
       c.searched_scans, c.second_guesses, c.lost_scans, c.map_restarts, c.health_resets,
-      c.reanchors, c.imu_disagreements, c.poor_fits_searched, c.poor_fits_moved, rejected_total_,
-      restarts_);
+      c.reanchors, c.imu_disagreements, c.poor_fits_deskewed, c.poor_fits_searched,
+      c.poor_fits_moved, rejected_total_, restarts_);
   if (!extrinsic_check_.empty()) {
     spdlog::info("{}", extrinsic_check_);
   }
@@ -239,6 +239,7 @@ void OdometryNode::publish_status(const OdometryEstimate* e, int64_t utime_us) {
                      {"imu_disagreements", c.imu_disagreements},
                      {"poor_fits_searched", c.poor_fits_searched},
                      {"poor_fits_moved", c.poor_fits_moved},
+                     {"poor_fits_deskewed", c.poor_fits_deskewed},
                      {"reanchors", c.reanchors},
                      {"lost_scans", c.lost_scans},
                      {"standstill_scans", c.standstill_scans},
