@@ -380,6 +380,16 @@ Vector6d LidarInertialOdometry::twist_to(const Sweep& sweep,
   return twist;
 }
 
+LidarInertialOdometry::Deskewed LidarInertialOdometry::deskew_at_twist(
+    const Sweep& sweep, const Vector6d& twist) const {
+  Deskewed out;
+  out.motion =
+      constant_twist_motion(sweep.T_local_body_before, sweep.utime_before, sweep.end_utime, twist);
+  out.points_body =
+      deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, out.motion, T_body_lidar_);
+  return out;
+}
+
 Vector6d LidarInertialOdometry::measured_twist(const Sweep& sweep) const {
   return twist_to(sweep, T_local_body());
 }
@@ -646,7 +656,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
   PosePrior prior;
   prior.T_target_source = T_local_body();
   prior.information = P_.topLeftCorner<6, 6>().inverse();
-  const std::vector<Eigen::Vector3f> source = registration_points(sweep.points_body);
+  std::vector<Eigen::Vector3f> source = registration_points(sweep.points_body);
   RegistrationResult result;
   const bool long_gap = config_.use_imu && sweep.unregistered_s() > config_.long_gap_s;
   const double reach_m = std::max(prediction_reach_m(), long_gap ? config_.long_gap_search_m : 0.0);
@@ -703,15 +713,15 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
                                    std::min(reach_m, config_.correspondence_cap_m));
     result = outweigh_imu(sweep, source, prior, reach_m, std::move(result), est);
     if (!config_.use_imu) {
-      const std::optional<double> usual_m = usual_fit_m();
-      if (config_.poor_fit_deskew_passes > 0 && usual_m &&
-          result.rms_residual_m > std::max(config_.poor_fit_deskew_floor_m,
-                                           config_.poor_fit_deskew_factor * *usual_m)) {
-        result = deskew_poor_fit(sweep, prior, std::min(reach_m, config_.correspondence_cap_m),
-                                 std::move(result));
+      if (config_.poor_fit_deskew_passes > 0 &&
+          fits_worse_than_usual(result.rms_residual_m, config_.poor_fit_deskew_factor,
+                                config_.poor_fit_deskew_floor_m)) {
+        result =
+            deskew_poor_fit(sweep, source, prior, std::min(reach_m, config_.correspondence_cap_m),
+                            std::move(result));
       }
       if (fits_far_worse(result.rms_residual_m)) {
-        result = search_poor_fit(registration_points(sweep.points_body), prior, std::move(result));
+        result = search_poor_fit(source, prior, std::move(result));
       }
     }
   }
@@ -732,11 +742,9 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
       // measured: that measurement carries the first pass's lag itself, and all of it made
       // the yaw overshoot and ring after a turn's start (+-1 deg, OS1-64 campus).
       const double b = config_.redeskew_blend;
-      sweep.motion =
-          constant_twist_motion(sweep.T_local_body_before, sweep.utime_before, sweep.end_utime,
-                                b * twist_ + (1.0 - b) * twist_predicted);
-      sweep.points_body =
-          deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, sweep.motion, T_body_lidar_);
+      Deskewed again = deskew_at_twist(sweep, b * twist_ + (1.0 - b) * twist_predicted);
+      sweep.motion = std::move(again.motion);
+      sweep.points_body = std::move(again.points_body);
       result = register_in_local_map(registration_points(sweep.points_body), T_local_body(), prior,
                                      config_.registration.max_correspondence_m);
       set_T_local_body(result.T_target_source);
@@ -830,11 +838,16 @@ std::optional<double> LidarInertialOdometry::usual_fit_m() const {
   return median(fits_m);
 }
 
-bool LidarInertialOdometry::fits_far_worse(double rms_residual_m) {
+bool LidarInertialOdometry::fits_worse_than_usual(double rms_residual_m, double factor,
+                                                  double floor_m) const {
   const std::optional<double> usual_m = usual_fit_m();
+  return usual_m && rms_residual_m > std::max(floor_m, factor * *usual_m);
+}
+
+bool LidarInertialOdometry::fits_far_worse(double rms_residual_m) {
   const bool far_worse =
-      config_.poor_fit_factor > 0.0 && usual_m &&
-      rms_residual_m > std::max(config_.poor_fit_floor_m, config_.poor_fit_factor * *usual_m);
+      config_.poor_fit_factor > 0.0 &&
+      fits_worse_than_usual(rms_residual_m, config_.poor_fit_factor, config_.poor_fit_floor_m);
   if (!far_worse) {
     recent_fitness_m_.push_back(rms_residual_m);
     while (static_cast<int>(recent_fitness_m_.size()) > config_.poor_fit_window) {
@@ -844,8 +857,9 @@ bool LidarInertialOdometry::fits_far_worse(double rms_residual_m) {
   return far_worse;
 }
 
-RegistrationResult LidarInertialOdometry::deskew_poor_fit(Sweep& sweep, const PosePrior& prior,
-                                                          double radius_m,
+RegistrationResult LidarInertialOdometry::deskew_poor_fit(Sweep& sweep,
+                                                          std::vector<Eigen::Vector3f>& source,
+                                                          const PosePrior& prior, double radius_m,
                                                           RegistrationResult result) {
   // The sweep was deskewed with the previous sweep's twist; where the rate changed within
   // it (a turn's end or start) its points are warped, and the best rigid fit of a warped
@@ -858,21 +872,18 @@ RegistrationResult LidarInertialOdometry::deskew_poor_fit(Sweep& sweep, const Po
   }
   const double first_rms_m = result.rms_residual_m;
   // A tighter fit of fewer points is no better.
-  const double first_inliers =
-      inlier_ratio(result.T_target_source, registration_points(sweep.points_body));
+  const double first_inliers = inlier_ratio(result.T_target_source, source);
   Eigen::Isometry3d T_local_body = result.T_target_source;
   for (int pass = 0; pass < config_.poor_fit_deskew_passes; ++pass) {
-    MotionProfile motion = constant_twist_motion(sweep.T_local_body_before, sweep.utime_before,
-                                                 sweep.end_utime, twist_to(sweep, T_local_body));
-    std::vector<Eigen::Vector3f> points =
-        deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, motion, T_body_lidar_);
-    const std::vector<Eigen::Vector3f> source = registration_points(points);
-    RegistrationResult again = register_in_local_map(source, T_local_body, prior, radius_m);
+    Deskewed deskewed = deskew_at_twist(sweep, twist_to(sweep, T_local_body));
+    std::vector<Eigen::Vector3f> pass_source = registration_points(deskewed.points_body);
+    RegistrationResult again = register_in_local_map(pass_source, T_local_body, prior, radius_m);
     T_local_body = again.T_target_source;
     if (again.rms_residual_m < result.rms_residual_m &&
-        inlier_ratio(again.T_target_source, source) >= first_inliers) {
-      sweep.motion = std::move(motion);
-      sweep.points_body = std::move(points);
+        inlier_ratio(again.T_target_source, pass_source) >= first_inliers) {
+      sweep.motion = std::move(deskewed.motion);
+      sweep.points_body = std::move(deskewed.points_body);
+      source = std::move(pass_source);
       result = std::move(again);
     }
   }

@@ -470,6 +470,13 @@ class LidarInertialOdometry {
     double unregistered_s() const { return (end_utime - registered_before_utime) * 1e-6; }
   };
 
+  // A sweep's motion at a constant body-frame twist from the previous sweep's end, and its
+  // points deskewed along it (deskew_at_twist).
+  struct Deskewed {
+    MotionProfile motion;
+    std::vector<Eigen::Vector3f> points_body;
+  };
+
   std::vector<OdometryEstimate> run(bool force);
   // Sets the initial state from the IMU before `start_utime`; false if there is too
   // little IMU yet.
@@ -489,6 +496,7 @@ class LidarInertialOdometry {
   // The body's motion at a constant body-frame twist (linear m/s, angular rad/s).
   static MotionProfile constant_twist_motion(const Eigen::Isometry3d& T_start, int64_t t0_us,
                                              int64_t t1_us, const Vector6d& twist);
+  Deskewed deskew_at_twist(const Sweep& sweep, const Vector6d& twist) const;
   // The twist from the previous sweep's end to the current state (body frame).
   Vector6d measured_twist(const Sweep& sweep) const;
   // The constant body-frame twist from the previous sweep's end to `T_local_body`.
@@ -697,10 +705,13 @@ class LidarInertialOdometry {
   bool fits_far_worse(double rms_residual_m);
   // The median of recent_fitness_m_ once half a window is known.
   std::optional<double> usual_fit_m() const;
+  // Whether the residual exceeds `factor` times usual_fit_m() (once known) and `floor_m`.
+  bool fits_worse_than_usual(double rms_residual_m, double factor, double floor_m) const;
   // A sweep that fit worse deskewed and registered again along the motion registration
-  // measured (poor_fit_deskew_passes); the pass that fits best, with the sweep's points and
-  // motion, or `result`.
-  RegistrationResult deskew_poor_fit(Sweep& sweep, const PosePrior& prior, double radius_m,
+  // measured (poor_fit_deskew_passes); the pass that fits best, with the sweep's points,
+  // motion and registration points (`source`), or `result`.
+  RegistrationResult deskew_poor_fit(Sweep& sweep, std::vector<Eigen::Vector3f>& source,
+                                     const PosePrior& prior, double radius_m,
                                      RegistrationResult result);
   // A sweep that fit far worse registered again by a search around the prediction
   // (poor_fit_factor); the search's answer where more of its points fit, else `result`.
