@@ -560,7 +560,10 @@ TEST(Odometry, LidarOnlyModeBridgesPausesOfSeconds) {
 // points shifted: a poorly fitting sweep in a turn). Carried across the pause, that sweep's
 // 6 m/s sideways put the prediction beyond the search's reach, and the estimate stayed 26 m
 // off (re-anchoring or not); the prediction with the velocity of the last second, searched
-// too, is within reach, and the drive after the pause is as accurate as without the pause.
+// too, is within reach, and the drive after the pause is nearly as accurate as without the
+// pause: the largest error 4-14 s after it 0.56 m against 0.44 m for the drive without it
+// (0.66 against 0.67 m with sweeps deskewed once, poor_fit_deskew_passes 0: deskewing
+// again gains more on the drive without the pause).
 TEST(Odometry, LidarOnlyAcrossAPauseTheLastSecondsVelocityIsASecondGuess) {
   const Recording& r = campus_drive();
   const double pause_s = 20.0;
@@ -594,7 +597,7 @@ TEST(Odometry, LidarOnlyAcrossAPauseTheLastSecondsVelocityIsASecondGuess) {
     return worst;
   };
   OdometryConfig config = config_for(r, false);
-  EXPECT_LT(error_after_pause_m(config, true), error_after_pause_m(config, false) + 0.1);
+  EXPECT_LT(error_after_pause_m(config, true), error_after_pause_m(config, false) + 0.15);
   config.second_guess_window_s = 0.0;  // the last two sweeps' velocity only
   EXPECT_GT(error_after_pause_m(config, true), 5.0);
 }
@@ -646,12 +649,13 @@ TEST(Odometry, LidarOnlySearchAfterAPauseFindsTheHeight) {
 
 // Without an IMU, a Mid-360 (no ring below -7 degrees) pauses for 5 s: the first sweep
 // after the pause is placed by the search, and that answer is settled with the normal
-// kernel (search_settle_after_s). Where settling moves it much (after the pauses from 27
-// and 47 s), it fits at least as many points and its roll and pitch are nearer the truth:
-// 0.119 against 0.189 and 0.014 against 0.024 degrees. (From 15, 20, 33, 50 and 55 s it
-// changed nothing, from 25 and 45 s under 0.003 degrees either way, and after those from
-// 38 and 40 s the search itself was refused: a restart. Measured with back faces refused,
-// registration.reject_back_faces; before, the pauses from 20 and 33 s showed it.) What
+// kernel (search_settle_after_s). Where settling moves it much (after the pauses from 35
+// and 40 s), it fits at least as many points and its roll and pitch are nearer the truth:
+// 0.635 against 0.652 and 0.049 against 0.111 degrees. (From 15, 20, 25, 27, 30, 33, 47
+// and 50 s it changed nothing, from 45 and 55 s under 0.002 degrees either way, and after
+// the pause from 38 s the search itself was refused: a restart. Measured with sweeps that
+// fit worse deskewed again, poor_fit_deskew_passes; before, the pauses from 27 and 47 s
+// showed it, and before back faces were refused those from 20 and 33 s.) What
 // that gains shows where the sweep shares little with the local map, 36 m on at 7 m/s:
 // the full sessions of bench_odometry --timing irregular, docs/odometry.md. The planes
 // seen edge-on are cut at 0.1, as when this was first measured.
@@ -680,7 +684,7 @@ TEST(Odometry, LidarOnlyAfterAPauseTheSearchsAnswerIsSettled) {
     ADD_FAILURE() << "no sweep after the pause from " << pause_start_s << " s";
     return AfterThePause{};
   };
-  for (const double pause_start_s : {27.0, 47.0}) {
+  for (const double pause_start_s : {35.0, 40.0}) {
     const AfterThePause settled = drive(pause_start_s, 1.0);
     const AfterThePause unsettled = drive(pause_start_s, 1e9);
     EXPECT_GE(settled.inlier_ratio, unsettled.inlier_ratio) << "pause from " << pause_start_s;
@@ -749,8 +753,8 @@ TEST(Odometry, LidarOnlyASweepTheMotionModelMissedIsSearchedFor) {
 // within it, its points are warped by the turn it no longer makes, and registered from the
 // prediction it settled degrees short of the truth; the sweeps after it rang about the truth
 // (Mid-360 campus A: -2.5 to +1.2 degrees for a second) and the local map took them in.
-// Deskewed again along the motion registration measured (poor_fit_deskew_passes, off by
-// default), the sweep fits where it is.
+// Deskewed again along the motion registration measured (poor_fit_deskew_passes), the
+// sweep fits where it is.
 TEST(Odometry, LidarOnlyASweepWarpedByATurnsEndIsDeskewedAgain) {
   const Recording& r = campus_drive();
   // The sweeps whose yaw is more than a degree off the truth, the largest error, and the
@@ -774,11 +778,11 @@ TEST(Odometry, LidarOnlyASweepWarpedByATurnsEndIsDeskewedAgain) {
     out.deskewed = odometry.counters().poor_fits_deskewed;
     return out;
   };
-  const YawErrors deskewed = yaw_errors(4);
+  const YawErrors deskewed = yaw_errors(OdometryConfig{}.poor_fit_deskew_passes);
   EXPECT_LE(deskewed.beyond_1deg, 3);  // 1
-  EXPECT_LT(deskewed.worst_deg, 1.6);  // 1.16
-  EXPECT_GT(deskewed.deskewed, 0);
-  const YawErrors once = yaw_errors(OdometryConfig{}.poor_fit_deskew_passes);
+  EXPECT_LT(deskewed.worst_deg, 1.6);  // 1.23
+  EXPECT_GT(deskewed.deskewed, 0);     // 12
+  const YawErrors once = yaw_errors(0);
   EXPECT_GE(once.beyond_1deg, 8);  // 18
   EXPECT_GT(once.worst_deg, 2.0);  // 2.20
   EXPECT_EQ(once.deskewed, 0);

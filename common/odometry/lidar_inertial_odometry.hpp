@@ -194,18 +194,22 @@ struct OdometryConfig {
   int poor_fit_window = 20;
   double poor_fit_search_m = 1.0;
   double poor_fit_search_yaw_rad = 0.1;
-  // Off by default (0 passes). Above 0, before that search a sweep whose residual exceeds
-  // poor_fit_deskew_factor times that median and poor_fit_deskew_floor_m is deskewed again
-  // along the motion from the previous sweep's end to its registered pose and registered
-  // again, poor_fit_deskew_passes times, and the pass that fits best (lower residual, no
-  // fewer points on the map) kept (deskew_poor_fit). Deskewed with the previous sweep's
+  // Before that search a sweep whose residual exceeds poor_fit_deskew_factor times that
+  // median and poor_fit_deskew_floor_m (a searched sweep too) is deskewed again along the
+  // motion from the previous sweep's end to its registered pose and registered again,
+  // poor_fit_deskew_passes times (0: never), and the pass that fits best kept
+  // (deskew_poor_fit) if it has no fewer points on the map and a residual lower than the
+  // first by at least the fraction poor_fit_deskew_min_gain. Deskewed with the previous sweep's
   // twist, a sweep in which a turn ended settles degrees short and the sweeps after it ring
-  // about the truth (Mid-360 campus A: -2.5 to +1.2 degrees for a second). With 4 passes
-  // the LiDAR-only RPE of campus A falls from 0.137 to 0.049 % (Mid-360), but the VLP-16's
-  // campus C diverges (0.93 -> 2.9 %) and pauses are bridged worse (docs/odometry.md).
+  // about the truth (Mid-360 campus A: -2.5 to +1.2 degrees for a second); deskewed again,
+  // campus A's LiDAR-only RPE falls from 0.137 to 0.049 % (Mid-360). A warp by a turn's end
+  // takes a pass 40-80 % of the residual; passes that took 4-16 % followed twists of noise
+  // (VLP-16 campus C, creeping off on open ground: kept, they took its RPE from 0.93 to
+  // 2.9 %; left, 0.81 %) (docs/odometry.md).
   double poor_fit_deskew_factor = 1.5;
   double poor_fit_deskew_floor_m = 0.05;
-  int poor_fit_deskew_passes = 0;
+  int poor_fit_deskew_passes = 4;
+  double poor_fit_deskew_min_gain = 0.25;
   // A restart at the predicted pose keeps the prediction's error for good (after a pause of
   // 4.6 s without an IMU, a Mid-360 sweep whose true place led by 20 % of its points, a
   // rival 67 degrees off by 16 %: restarted 2.3 m short). So the local map of before is
@@ -376,6 +380,7 @@ struct OdometryConfig {
     v("poor_fit_deskew_factor", poor_fit_deskew_factor);
     v("poor_fit_deskew_floor_m", poor_fit_deskew_floor_m);
     v("poor_fit_deskew_passes", poor_fit_deskew_passes);
+    v("poor_fit_deskew_min_gain", poor_fit_deskew_min_gain);
     v("reanchor_after_s", reanchor_after_s);
     v("reanchor_attempts", reanchor_attempts);
     v("lost_after_degenerate_s", lost_after_degenerate_s);
