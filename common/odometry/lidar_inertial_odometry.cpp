@@ -664,6 +664,8 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
   const bool long_gap = config_.use_imu && sweep.unregistered_s() > config_.long_gap_s;
   const double reach_m = std::max(prediction_reach_m(), long_gap ? config_.long_gap_search_m : 0.0);
   const bool searched = long_gap || reach_m > config_.search_beyond_m;
+  // Registration from a start already near the answer (the prediction, or the search's).
+  const double radius_m = std::min(reach_m, config_.correspondence_cap_m);
   if (searched) {
     ++counters_.searched_scans;
     std::vector<PosePrior> guesses{prior};
@@ -712,8 +714,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
     result = std::move(found.result);
     est.inlier_ratio = found.inlier_ratio;
   } else {
-    result = register_in_local_map(source, prior.T_target_source, prior,
-                                   std::min(reach_m, config_.correspondence_cap_m));
+    result = register_in_local_map(source, prior.T_target_source, prior, radius_m);
     result = outweigh_imu(sweep, source, prior, reach_m, std::move(result), est);
   }
   if (!config_.use_imu) {
@@ -723,8 +724,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
     if (config_.poor_fit_deskew_passes > 0 &&
         fits_worse_than_usual(result.rms_residual_m, config_.poor_fit_deskew_factor,
                               config_.poor_fit_deskew_floor_m)) {
-      result = deskew_poor_fit(sweep, source, prior,
-                               std::min(reach_m, config_.correspondence_cap_m), std::move(result));
+      result = deskew_poor_fit(sweep, source, prior, radius_m, std::move(result));
     }
     if (!searched && fits_far_worse(result.rms_residual_m)) {
       result = search_poor_fit(source, prior, std::move(result));
