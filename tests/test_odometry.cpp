@@ -749,6 +749,33 @@ TEST(Odometry, LidarOnlyASweepTheMotionModelMissedIsSearchedFor) {
   EXPECT_GT(registered.after_2s_deg, 5.0);  // 15.3
 }
 
+// A LiDAR-only drive of r, its config changed by edit: the heading's error against the
+// truth (the sweeps more than a degree off and the largest), the ATE, and the sweeps that
+// fit worse deskewed again.
+struct LidarOnlyDrive {
+  int yaw_beyond_1deg = 0;
+  double worst_yaw_deg = 0.0;
+  double ate_m = 0.0;
+  int64_t deskewed = 0;
+};
+
+template <class Edit>
+LidarOnlyDrive drive_lidar_only(const Recording& r, Edit edit) {
+  OdometryConfig config = config_for(r, false);
+  edit(config);
+  LidarInertialOdometry odometry(config);
+  const Replayed run = replay(r, odometry);
+  LidarOnlyDrive out;
+  for (const OdometryEstimate& e : run.estimates) {
+    const double error_deg = std::abs(run.rpy_error_rad(r, e).z()) * so3::kRadToDeg;
+    out.yaw_beyond_1deg += error_deg > 1.0 ? 1 : 0;
+    out.worst_yaw_deg = std::max(out.worst_yaw_deg, error_deg);
+  }
+  out.ate_m = run.metrics(r).ate_position_rmse_m;
+  out.deskewed = odometry.counters().poor_fits_deskewed;
+  return out;
+}
+
 // Without an IMU a sweep is deskewed with the previous sweep's twist. Where a turn ends
 // within it, its points are warped by the turn it no longer makes, and registered from the
 // prediction it settled degrees short of the truth; the sweeps after it rang about the truth
@@ -757,34 +784,16 @@ TEST(Odometry, LidarOnlyASweepTheMotionModelMissedIsSearchedFor) {
 // sweep fits where it is.
 TEST(Odometry, LidarOnlyASweepWarpedByATurnsEndIsDeskewedAgain) {
   const Recording& r = campus_drive();
-  // The sweeps whose yaw is more than a degree off the truth, the largest error, and the
-  // sweeps deskewed again.
-  struct YawErrors {
-    int beyond_1deg = 0;
-    double worst_deg = 0.0;
-    int64_t deskewed = 0;
+  const auto drive = [&](int passes) {
+    return drive_lidar_only(r, [&](OdometryConfig& c) { c.poor_fit_deskew_passes = passes; });
   };
-  const auto yaw_errors = [&](int passes) {
-    OdometryConfig config = config_for(r, false);
-    config.poor_fit_deskew_passes = passes;
-    LidarInertialOdometry odometry(config);
-    const Replayed run = replay(r, odometry);
-    YawErrors out;
-    for (const OdometryEstimate& e : run.estimates) {
-      const double error_deg = std::abs(run.rpy_error_rad(r, e).z()) * so3::kRadToDeg;
-      out.beyond_1deg += error_deg > 1.0 ? 1 : 0;
-      out.worst_deg = std::max(out.worst_deg, error_deg);
-    }
-    out.deskewed = odometry.counters().poor_fits_deskewed;
-    return out;
-  };
-  const YawErrors deskewed = yaw_errors(OdometryConfig{}.poor_fit_deskew_passes);
-  EXPECT_LE(deskewed.beyond_1deg, 3);  // 1
-  EXPECT_LT(deskewed.worst_deg, 1.6);  // 1.23
-  EXPECT_GT(deskewed.deskewed, 0);     // 12
-  const YawErrors once = yaw_errors(0);
-  EXPECT_GE(once.beyond_1deg, 8);  // 18
-  EXPECT_GT(once.worst_deg, 2.0);  // 2.20
+  const LidarOnlyDrive deskewed = drive(OdometryConfig{}.poor_fit_deskew_passes);
+  EXPECT_LE(deskewed.yaw_beyond_1deg, 3);  // 1
+  EXPECT_LT(deskewed.worst_yaw_deg, 1.6);  // 1.23
+  EXPECT_GT(deskewed.deskewed, 0);         // 12
+  const LidarOnlyDrive once = drive(0);
+  EXPECT_GE(once.yaw_beyond_1deg, 8);  // 18
+  EXPECT_GT(once.worst_yaw_deg, 2.0);  // 2.20
   EXPECT_EQ(once.deskewed, 0);
 }
 
@@ -795,29 +804,13 @@ TEST(Odometry, LidarOnlyASweepWarpedByATurnsEndIsDeskewedAgain) {
 // start turns 14 degrees with them left too: the start's own, docs/odometry.md.)
 TEST(Odometry, LidarOnlyAPassThatFitsLittleBetterIsNotKept) {
   const Recording r = record_session_start(1, "C", 3, "vlp16");
-  struct Outcome {
-    double ate_m = 0.0;
-    double worst_yaw_deg = 0.0;
-    int64_t deskewed = 0;
-  };
   const auto drive = [&](double min_gain) {
-    OdometryConfig config = config_for(r, false);
-    config.poor_fit_deskew_min_gain = min_gain;
-    LidarInertialOdometry odometry(config);
-    const Replayed run = replay(r, odometry);
-    Outcome out;
-    for (const OdometryEstimate& e : run.estimates) {
-      out.worst_yaw_deg =
-          std::max(out.worst_yaw_deg, std::abs(run.rpy_error_rad(r, e).z()) * so3::kRadToDeg);
-    }
-    out.ate_m = run.metrics(r).ate_position_rmse_m;
-    out.deskewed = odometry.counters().poor_fits_deskewed;
-    return out;
+    return drive_lidar_only(r, [&](OdometryConfig& c) { c.poor_fit_deskew_min_gain = min_gain; });
   };
-  const Outcome gain_rule = drive(OdometryConfig{}.poor_fit_deskew_min_gain);
+  const LidarOnlyDrive gain_rule = drive(OdometryConfig{}.poor_fit_deskew_min_gain);
   EXPECT_LT(gain_rule.ate_m, 2.5);           // 1.23
   EXPECT_LT(gain_rule.worst_yaw_deg, 20.0);  // 14.1
-  const Outcome any_gain = drive(0.0);
+  const LidarOnlyDrive any_gain = drive(0.0);
   EXPECT_GT(any_gain.ate_m, 4.0);                    // 6.18
   EXPECT_GT(any_gain.worst_yaw_deg, 25.0);           // 37.7
   EXPECT_GT(any_gain.deskewed, gain_rule.deskewed);  // 4 against 1
