@@ -77,7 +77,7 @@ struct Run {
   std::string extrinsic_check;  // the check's message, and when it came (s after the start)
   double extrinsic_check_at_s = -1.0;
   bool extrinsic_warned = false;
-  std::string incidence_cut;  // the cut for planes seen edge-on chosen for the LiDAR
+  std::string ring_adaptation;  // what the odometry chose for the LiDAR's elevation steps
   double longest_gap_s = 0.0;
   int64_t sweeps_used = 0;
   eval::TrajectoryMetrics metrics;
@@ -218,8 +218,8 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   const auto consume = [&](const std::vector<OdometryEstimate>& out) {
     for (const OdometryEstimate& e : out) {
       estimate.push_back({e.utime_us * 1e-6, e.T_odom_body});
-      if (!e.incidence_cut.empty()) {
-        run.incidence_cut = e.incidence_cut;
+      if (!e.ring_adaptation.empty()) {
+        run.ring_adaptation = e.ring_adaptation;
       }
       if (e.extrinsic_check) {
         run.extrinsic_check = e.extrinsic_check->message;
@@ -475,8 +475,8 @@ int main(int argc, char** argv) {
           .number(r.extrinsic_check_at_s)
           .key("extrinsic_warned")
           .boolean(r.extrinsic_warned)
-          .key("incidence_cut")
-          .string(r.incidence_cut)
+          .key("ring_adaptation")
+          .string(r.ring_adaptation)
           .key("sweeps_used")
           .integer(r.sweeps_used)
           .key("longest_gap_s")

@@ -573,8 +573,8 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
       timed(est.timings.preprocess_ms, [&] { return preprocess(scan, start_utime, end_utime); });
   timed(est.timings.propagate_ms, [&] { predict_and_deskew(sweep, est); });
   if (static_cast<int>(sweep.valid.size()) >= config_.min_points) {
-    if (!incidence_cut_chosen_) {
-      est.incidence_cut = choose_incidence_cut(scan);
+    if (!adapted_to_rings_) {
+      est.ring_adaptation = adapt_to_rings(scan);
     }
     timed(est.timings.register_ms, [&] { register_sweep(sweep, est); });
     last_registered_utime_ = end_utime;
@@ -591,11 +591,11 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
   return est;
 }
 
-std::string LidarInertialOdometry::choose_incidence_cut(const LidarScan& scan) {
+std::string LidarInertialOdometry::adapt_to_rings(const LidarScan& scan) {
   const double spacings =
       config_.use_imu ? config_.grazing_ring_spacings : config_.grazing_ring_spacings_without_imu;
-  if (spacings <= 0.0) {
-    incidence_cut_chosen_ = true;
+  if (spacings <= 0.0 && !config_.far_ceilings_left_out) {
+    adapted_to_rings_ = true;
     return {};
   }
   // Until a sweep shows enough of the horizon (a blocked or empty first view), the
@@ -604,14 +604,26 @@ std::string LidarInertialOdometry::choose_incidence_cut(const LidarScan& scan) {
   if (!step_rad) {
     return {};
   }
-  incidence_cut_chosen_ = true;
-  double& cut = config_.registration.min_incidence_cos;
-  cut = std::min(cut, std::max(config_.min_incidence_cos_floor, std::sin(spacings * *step_rad)));
-  char text[160];
-  std::snprintf(text, sizeof(text),
-                "elevation steps of up to %.2f deg near the LiDAR's horizon: planes seen at a "
-                "cosine of incidence below %.3f are left out",
-                *step_rad * so3::kRadToDeg, cut);
+  adapted_to_rings_ = true;
+  char text[320];
+  int length = std::snprintf(text, sizeof(text),
+                             "elevation steps of up to %.2f deg near the LiDAR's horizon",
+                             *step_rad * so3::kRadToDeg);
+  if (spacings > 0.0) {
+    double& cut = config_.registration.min_incidence_cos;
+    cut = std::min(cut, std::max(config_.min_incidence_cos_floor, std::sin(spacings * *step_rad)));
+    length += std::snprintf(text + length, sizeof(text) - length,
+                            ": planes seen at a cosine of incidence below %.3f are left out", cut);
+  }
+  // Beyond the range where those steps open wider than an association radius, the map holds
+  // a ceiling as one ring of successive sweeps (far_ceilings_left_out).
+  const double far_m = config_.registration.max_correspondence_m / *step_rad;
+  if (config_.far_ceilings_left_out && far_m < config_.max_range_m) {
+    config_.registration.far_ceiling_beyond_m = far_m;
+    std::snprintf(text + length, sizeof(text) - length,
+                  "%s planes near level above the LiDAR beyond %.1f m are left out",
+                  spacings > 0.0 ? ";" : ":", far_m);
+  }
   return text;
 }
 

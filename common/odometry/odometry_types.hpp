@@ -72,10 +72,11 @@ struct OdometryEstimate {
   // faulty or saturated IMU), which the LiDAR then outweighed
   // (OdometryConfig::imu_consistency_nis): by how much. The estimate is still trusted.
   std::string imu_disagreement;
-  // Set on the first sweep that shows the LiDAR's horizon: the cut for planes seen edge-on
-  // chosen for this LiDAR (OdometryConfig::grazing_ring_spacings, or _without_imu), and
-  // from what.
-  std::string incidence_cut;
+  // Set on the first sweep that shows the LiDAR's horizon: what the odometry chose for this
+  // LiDAR's elevation steps (the cut for planes seen edge-on, OdometryConfig::
+  // grazing_ring_spacings or _without_imu; the range beyond which planes near level above
+  // the LiDAR are left out, OdometryConfig::far_ceilings_left_out), and from what.
+  std::string ring_adaptation;
   // Set on the one estimate where the LiDAR-IMU extrinsic check decided (its message
   // says what it found; `warn` when the configuration looks wrong).
   std::optional<ExtrinsicEstimate> extrinsic_check;

@@ -170,8 +170,8 @@ void OdometryNode::publish(const std::vector<OdometryEstimate>& estimates) {
       // Rare (a restart before it) and a jump of the output: always said.
       spdlog::warn("{}: {}", robot_id_, e.reanchored);
     }
-    if (!e.incidence_cut.empty()) {
-      spdlog::info("{}: {}", robot_id_, e.incidence_cut);
+    if (!e.ring_adaptation.empty()) {
+      spdlog::info("{}: {}", robot_id_, e.ring_adaptation);
     }
     if (e.extrinsic_check) {
       extrinsic_check_ = e.extrinsic_check->message;

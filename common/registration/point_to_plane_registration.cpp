@@ -39,6 +39,17 @@ struct Match {
 
 double cauchy_weight(double r, double scale) { return 1.0 / (1.0 + (r * r) / (scale * scale)); }
 
+// Whether q, matched to `plane`, is a ceiling farther than far_ceiling_beyond_m from the
+// sensor at sensor_target.
+bool far_ceiling(const Plane& plane, const Eigen::Vector3d& q, const Eigen::Vector3d& sensor_target,
+                 double far_ceiling_beyond_m) {
+  constexpr double kMinLevelNormalZ = 0.5;  // within 60 degrees of level
+  const Eigen::Vector3d from_sensor = q - sensor_target;
+  return far_ceiling_beyond_m > 0.0 && from_sensor.z() > 0.0 &&
+         std::abs(plane.normal.z()) >= kMinLevelNormalZ &&
+         from_sensor.head<2>().norm() > far_ceiling_beyond_m;
+}
+
 // Whether the sensor at sensor_target sees the plane from the side opposite to the one its
 // neighbours were seen from. A direction within kSideCos of the plane decides nothing: the
 // normal of a fitted plane is off by degrees, and the ground seen at a grazing angle (views
@@ -93,6 +104,7 @@ std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const V
     }
     const Eigen::Vector3d ray = (source[i].cast<double>() - sensor_origin_source).normalized();
     if (std::abs(plane->normal.dot(T.linear() * ray)) < config.min_incidence_cos ||
+        far_ceiling(*plane, q.cast<double>(), sensor_target, config.far_ceiling_beyond_m) ||
         (config.reject_back_faces &&
          seen_from_other_side(n, *plane, q.cast<double>(), sensor_target,
                               config.back_face_min_offset_m))) {
@@ -197,6 +209,9 @@ void RegistrationConfig::validate() const {
   }
   if (!(back_face_min_offset_m >= 0)) {
     throw std::invalid_argument("back_face_min_offset_m must be at least 0");
+  }
+  if (!(far_ceiling_beyond_m >= 0)) {
+    throw std::invalid_argument("far_ceiling_beyond_m must be at least 0 (0: off)");
   }
 }
 
