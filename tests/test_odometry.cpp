@@ -565,8 +565,8 @@ TEST(Odometry, LidarOnlyModeBridgesPausesOfSeconds) {
 // pause: the largest error 4-14 s after it 0.56 m against 0.44 m for the drive without it
 // (0.66 against 0.67 m with sweeps deskewed once, poor_fit_deskew_passes 0: deskewing
 // again gains more on the drive without the pause). With far ceilings left out
-// (far_ceilings_left_out) the drive without the pause is 0.12 m off and the drive after it
-// 0.57 m, as before: the bound is now on the latter alone.
+// (far_ceilings_left_out_without_imu) the drive without the pause is 0.12 m off and the
+// drive after it 0.57 m, as before: the bound is now on the latter alone.
 TEST(Odometry, LidarOnlyAcrossAPauseTheLastSecondsVelocityIsASecondGuess) {
   const Recording& r = campus_drive();
   const double pause_s = 20.0;
@@ -806,12 +806,13 @@ TEST(Odometry, LidarOnlyASweepWarpedByATurnsEndIsDeskewedAgain) {
 // A VLP-16 drives off from the start of bench_odometry's campus D (its first waypoints).
 // Matched, the ceilings far above it (undersides of canopies and tree crowns, which its map
 // holds as one ring of successive sweeps) tilted the estimate nose up while it gathered
-// speed, and the map kept that tilt; left out beyond 14.3 m (far_ceilings_left_out), the
-// ground holds it.
+// speed, and the map kept that tilt; left out beyond 14.3 m
+// (far_ceilings_left_out_without_imu), the ground holds it.
 TEST(Odometry, LidarOnlyFarCeilingsDoNotTiltARingLidar) {
   const Recording r = record_session_start(1, "D", 3, "vlp16");
   const auto drive = [&](bool left_out) {
-    return drive_lidar_only(r, [&](OdometryConfig& c) { c.far_ceilings_left_out = left_out; });
+    return drive_lidar_only(
+        r, [&](OdometryConfig& c) { c.far_ceilings_left_out_without_imu = left_out; });
   };
   const LidarOnlyDrive left_out = drive(true);
   const LidarOnlyDrive matched = drive(false);
@@ -826,14 +827,15 @@ TEST(Odometry, LidarOnlyFarCeilingsDoNotTiltARingLidar) {
 // 180-360 points on planes at a residual of a few centimetres, and passes along twists of
 // noise fit it a little better: kept, they turned the drive up to 38 degrees off. (The
 // start turns 14 degrees with them left too: the start's own, docs/odometry.md.) With the
-// far ceilings left out (far_ceilings_left_out) this start holds with any pass kept (0.034
-// m ATE, 0.40 degrees): the test matches them, as when the gain rule was made for it.
+// far ceilings left out (far_ceilings_left_out_without_imu) this start holds with any pass
+// kept (0.034 m ATE, 0.40 degrees): the test matches them, as when the gain rule was made
+// for it.
 TEST(Odometry, LidarOnlyAPassThatFitsLittleBetterIsNotKept) {
   const Recording r = record_session_start(1, "C", 3, "vlp16");
   const auto drive = [&](double min_gain) {
     return drive_lidar_only(r, [&](OdometryConfig& c) {
       c.poor_fit_deskew_min_gain = min_gain;
-      c.far_ceilings_left_out = false;
+      c.far_ceilings_left_out_without_imu = false;
     });
   };
   const LidarOnlyDrive gain_rule = drive(OdometryConfig{}.poor_fit_deskew_min_gain);
@@ -850,14 +852,11 @@ TEST(Odometry, LidarOnlyAPassThatFitsLittleBetterIsNotKept) {
 // IMU looks like standing. With the zero-velocity update allowed up to 0.3 m/s of believed
 // speed it held the creep at zero, and the sweeps after it, fitting few planes, kept the
 // estimate a quarter behind the motion (20 m off after 16 s; 8.5 m ATE over the session).
-// With the far ceilings left out (far_ceilings_left_out) those sweeps hold the creep
-// better (0.19 m ATE at 0.3 m/s): the test matches them, as when it was written.
 TEST(Odometry, ACreepingStartIsNotTakenForAStandstill) {
   const Recording r = record_session_start(2, "A", 3, "vlp16");
   const auto ate_m = [&](double standstill_max_speed_mps) {
     OdometryConfig config = config_for(r);
     config.standstill_max_speed_mps = standstill_max_speed_mps;
-    config.far_ceilings_left_out = false;
     LidarInertialOdometry odometry(config);
     return replay(r, odometry).metrics(r).ate_position_rmse_m;
   };

@@ -594,7 +594,9 @@ OdometryEstimate LidarInertialOdometry::process_scan(const LidarScan& scan, int6
 std::string LidarInertialOdometry::adapt_to_rings(const LidarScan& scan) {
   const double spacings =
       config_.use_imu ? config_.grazing_ring_spacings : config_.grazing_ring_spacings_without_imu;
-  if (spacings <= 0.0 && !config_.far_ceilings_left_out) {
+  const bool ceilings_left_out =
+      config_.use_imu ? config_.far_ceilings_left_out : config_.far_ceilings_left_out_without_imu;
+  if (spacings <= 0.0 && !ceilings_left_out) {
     adapted_to_rings_ = true;
     return {};
   }
@@ -616,9 +618,9 @@ std::string LidarInertialOdometry::adapt_to_rings(const LidarScan& scan) {
                             ": planes seen at a cosine of incidence below %.3f are left out", cut);
   }
   // Beyond the range where those steps open wider than an association radius, the map holds
-  // a ceiling as one ring of successive sweeps (far_ceilings_left_out).
+  // a ceiling as one ring of successive sweeps (far_ceilings_left_out, or _without_imu).
   const double far_m = config_.registration.max_correspondence_m / *step_rad;
-  if (config_.far_ceilings_left_out && far_m < config_.max_range_m) {
+  if (ceilings_left_out && far_m < config_.max_range_m) {
     config_.registration.far_ceiling_beyond_m = far_m;
     std::snprintf(text + length, sizeof(text) - length,
                   "%s planes near level above the LiDAR beyond %.1f m are left out",

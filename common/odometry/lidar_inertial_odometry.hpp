@@ -128,8 +128,11 @@ struct OdometryConfig {
   // are not matched (RegistrationConfig::far_ceiling_beyond_m). Matched, they tilted every
   // VLP-16 and HDL-32E run traced by 0.4-1.5 degrees, nose up, in its first 50 m, and the
   // map kept it (VLP-16 campus D without an IMU: 1.44 degrees RMS, ATE 0.403 m; left out
-  // 0.15 degrees, 0.036 m; docs/odometry.md).
-  bool far_ceilings_left_out = true;
+  // 0.15 degrees, 0.036 m; docs/odometry.md). With an IMU, gravity holds the tilt, and
+  // left out they cost the HDL-32E's corridor its hold along the axis (1.94 -> 37.9 m ATE):
+  // far_ceilings_left_out applies with an IMU, _without_imu without one.
+  bool far_ceilings_left_out = false;
+  bool far_ceilings_left_out_without_imu = true;
   double correspondence_sigmas = 3.0;
   double correspondence_lever_m = 10.0;
   double correspondence_cap_m = 2.0;
@@ -363,6 +366,7 @@ struct OdometryConfig {
     v("grazing_ring_spacings_without_imu", grazing_ring_spacings_without_imu);
     v("min_incidence_cos_floor", min_incidence_cos_floor);
     v("far_ceilings_left_out", far_ceilings_left_out);
+    v("far_ceilings_left_out_without_imu", far_ceilings_left_out_without_imu);
     v("correspondence_sigmas", correspondence_sigmas);
     v("correspondence_lever_m", correspondence_lever_m);
     v("correspondence_cap_m", correspondence_cap_m);
@@ -534,7 +538,8 @@ class LidarInertialOdometry {
   double prediction_reach_m() const;
   // Once a sweep shows the LiDAR's elevation steps near its horizon: lowers
   // registration.min_incidence_cos by them (grazing_ring_spacings, or _without_imu) and sets
-  // registration.far_ceiling_beyond_m (far_ceilings_left_out); says what it chose.
+  // registration.far_ceiling_beyond_m (far_ceilings_left_out, or _without_imu); says what
+  // it chose.
   std::string adapt_to_rings(const LidarScan& scan);
   // The same for a pose covariance (translation, rotation).
   double reach_of(const Matrix6d& pose_covariance) const;
