@@ -75,7 +75,8 @@ struct OdometryEstimate {
   // Set on the first sweep that shows the LiDAR's horizon: what the odometry chose for this
   // LiDAR's elevation steps (the cut for planes seen edge-on, OdometryConfig::
   // grazing_ring_spacings or _without_imu; the range beyond which planes near level above
-  // the LiDAR are left out, OdometryConfig::far_ceilings_left_out), and from what.
+  // the LiDAR are left out, OdometryConfig::far_ceilings_left_out or _without_imu), and
+  // from what.
   std::string ring_adaptation;
   // Set on the one estimate where the LiDAR-IMU extrinsic check decided (its message
   // says what it found; `warn` when the configuration looks wrong).
