@@ -243,6 +243,22 @@ LidarScan sweep_of(const std::string& model, int64_t index, bool blocked = false
   return scan;
 }
 
+// What the odometry adapted to a simulated model's rings from its first sweep, with a
+// standing IMU or without one.
+std::string ring_adaptation_of(LidarInertialOdometry& odometry, const OdometryConfig& config,
+                               const std::string& model) {
+  if (config.use_imu) {
+    for (int64_t t_us = 300'000; t_us <= 1'200'000; t_us += 5'000) {
+      odometry.add_imu(
+          {t_us, Eigen::Vector3d(0.0, 0.0, config.imu.gravity_mps2), Eigen::Vector3d::Zero()});
+    }
+  }
+  odometry.add_scan(sweep_of(model, 0));
+  const std::vector<OdometryEstimate> out = odometry.process();
+  EXPECT_EQ(out.size(), 1u) << model;
+  return out.empty() ? std::string() : out.front().ring_adaptation;
+}
+
 // The cut for planes seen edge-on chosen from one sweep of a simulated model, with a
 // standing IMU or without one; the ring spacings as configured by default, else these
 // (with the IMU and without).
@@ -254,18 +270,9 @@ double chosen_incidence_cut(const std::string& model, bool use_imu,
     config.grazing_ring_spacings = config.grazing_ring_spacings_without_imu = *ring_spacings;
   }
   LidarInertialOdometry odometry(config);
-  if (use_imu) {
-    for (int64_t t_us = 300'000; t_us <= 1'200'000; t_us += 5'000) {
-      odometry.add_imu(
-          {t_us, Eigen::Vector3d(0.0, 0.0, config.imu.gravity_mps2), Eigen::Vector3d::Zero()});
-    }
-  }
-  odometry.add_scan(sweep_of(model, 0));
-  const std::vector<OdometryEstimate> out = odometry.process();
-  EXPECT_EQ(out.size(), 1u) << model;
-  EXPECT_EQ(
-      out.empty() || out.front().ring_adaptation.find("cosine of incidence") == std::string::npos,
-      ring_spacings.has_value() && *ring_spacings <= 0.0)
+  const std::string adaptation = ring_adaptation_of(odometry, config, model);
+  EXPECT_EQ(adaptation.find("cosine of incidence") == std::string::npos,
+            ring_spacings.has_value() && *ring_spacings <= 0.0)
       << model;
   return odometry.min_incidence_cos();
 }
@@ -288,6 +295,26 @@ TEST(LidarInertialOdometry, LowersTheGrazingCutWhereTheLidarSamplesItsHorizonFin
   // 0: the cut as configured.
   EXPECT_DOUBLE_EQ(chosen_incidence_cut("mid360", true, 0.0), 0.1);
   EXPECT_DOUBLE_EQ(chosen_incidence_cut("mid360", false, 0.0), 0.1);
+}
+
+// Far ceilings are left out beyond the range where the rings' elevation steps open wider
+// than the association radius (0.5 m / 2 deg = 14.3 m for the VLP-16), without an IMU by
+// default; never for a LiDAR whose steps stay fine to its range (the Mid-360).
+TEST(LidarInertialOdometry, LeavesOutFarCeilingsBeyondWhatTheRingsResolve) {
+  const auto adaptation = [](const std::string& model, bool use_imu, bool with_imu_too) {
+    OdometryConfig config;
+    config.use_imu = use_imu;
+    config.far_ceilings_left_out = with_imu_too;
+    LidarInertialOdometry odometry(config);
+    return ring_adaptation_of(odometry, config, model);
+  };
+  const std::string ceilings = "planes near level above the LiDAR beyond ";
+  EXPECT_NE(adaptation("vlp16", false, false).find(ceilings + "14.3 m"), std::string::npos)
+      << adaptation("vlp16", false, false);
+  EXPECT_NE(adaptation("hdl32", false, false).find(ceilings + "21.5 m"), std::string::npos);
+  EXPECT_EQ(adaptation("vlp16", true, false).find(ceilings), std::string::npos);
+  EXPECT_NE(adaptation("vlp16", true, true).find(ceilings + "14.3 m"), std::string::npos);
+  EXPECT_EQ(adaptation("mid360", false, false).find(ceilings), std::string::npos);
 }
 
 TEST(LidarInertialOdometry, KeepsTheConfiguredGrazingCutUntilASweepShowsTheHorizon) {
@@ -753,8 +780,8 @@ TEST(Odometry, LidarOnlyASweepTheMotionModelMissedIsSearchedFor) {
 }
 
 // A LiDAR-only drive of r, its config changed by edit: the heading's error against the
-// truth (the sweeps more than a degree off and the largest), the ATE, and the sweeps that
-// fit worse deskewed again.
+// truth (the sweeps more than a degree off and the largest), the largest roll and pitch error
+// (the norm of the two), the ATE, and the sweeps that fit worse deskewed again.
 struct LidarOnlyDrive {
   int yaw_beyond_1deg = 0;
   double worst_yaw_deg = 0.0;

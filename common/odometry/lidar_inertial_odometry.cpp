@@ -607,24 +607,26 @@ std::string LidarInertialOdometry::adapt_to_rings(const LidarScan& scan) {
     return {};
   }
   adapted_to_rings_ = true;
-  char text[320];
-  int length = std::snprintf(text, sizeof(text),
-                             "elevation steps of up to %.2f deg near the LiDAR's horizon",
-                             *step_rad * so3::kRadToDeg);
+  // Each piece formatted on its own and appended: no offsets into one fixed buffer.
+  std::string text;
+  const auto append = [&text](const char* format, auto... args) {
+    char piece[160];
+    std::snprintf(piece, sizeof(piece), format, args...);
+    text += piece;
+  };
+  append("elevation steps of up to %.2f deg near the LiDAR's horizon", *step_rad * so3::kRadToDeg);
   if (spacings > 0.0) {
     double& cut = config_.registration.min_incidence_cos;
     cut = std::min(cut, std::max(config_.min_incidence_cos_floor, std::sin(spacings * *step_rad)));
-    length += std::snprintf(text + length, sizeof(text) - length,
-                            ": planes seen at a cosine of incidence below %.3f are left out", cut);
+    append(": planes seen at a cosine of incidence below %.3f are left out", cut);
   }
   // Beyond the range where those steps open wider than an association radius, the map holds
   // a ceiling as one ring of successive sweeps (far_ceilings_left_out, or _without_imu).
   const double far_m = config_.registration.max_correspondence_m / *step_rad;
   if (ceilings_left_out && far_m < config_.max_range_m) {
     config_.registration.far_ceiling_beyond_m = far_m;
-    std::snprintf(text + length, sizeof(text) - length,
-                  "%s planes near level above the LiDAR beyond %.1f m are left out",
-                  spacings > 0.0 ? ";" : ":", far_m);
+    append("%s planes near level above the LiDAR beyond %.1f m are left out",
+           spacings > 0.0 ? ";" : ":", far_m);
   }
   return text;
 }
