@@ -44,9 +44,11 @@ double cauchy_weight(double r, double scale) { return 1.0 / (1.0 + (r * r) / (sc
 bool far_ceiling(const Plane& plane, const Eigen::Vector3d& q, const Eigen::Vector3d& sensor_target,
                  double far_ceiling_beyond_m) {
   constexpr double kMinLevelNormalZ = 0.5;  // within 60 degrees of level
+  if (far_ceiling_beyond_m <= 0.0) {
+    return false;
+  }
   const Eigen::Vector3d from_sensor = q - sensor_target;
-  return far_ceiling_beyond_m > 0.0 && from_sensor.z() > 0.0 &&
-         std::abs(plane.normal.z()) >= kMinLevelNormalZ &&
+  return from_sensor.z() > 0.0 && std::abs(plane.normal.z()) >= kMinLevelNormalZ &&
          from_sensor.head<2>().norm() > far_ceiling_beyond_m;
 }
 
