@@ -688,16 +688,23 @@ TEST(Odometry, LidarOnlySearchAfterAPauseFindsTheHeight) {
 // showed it, and before back faces were refused those from 20 and 33 s.) What
 // that gains shows where the sweep shares little with the local map, 36 m on at 7 m/s:
 // the full sessions of bench_odometry --timing irregular, docs/odometry.md. The planes
-// seen edge-on are cut at 0.1, as when this was first measured.
+// seen edge-on are cut at 0.1, as when this was first measured. By default the sweep after
+// the pause is then registered again with its own twist (own_twist_after_gap), from the
+// answer, settled or not, so settling is measured without that step. With it the tilt after
+// the pause is 0.196 and 0.275 degrees: better than settling after the pause from 35 s,
+// worse after the one from 40 s (likely the correction's pitch rate, weakly seen here; with
+// a tight prior on the vertical velocity and the roll and pitch rates, tried: 0.367 and
+// 0.082). Bounded here so that it cannot grow unseen.
 TEST(Odometry, LidarOnlyAfterAPauseTheSearchsAnswerIsSettled) {
   static const Recording r = record("campus", {}, "mid360");
   struct AfterThePause {
     double tilt_error_deg = 0.0, inlier_ratio = 0.0;
   };
-  const auto drive = [&](double pause_start_s, double settle_after_s) {
+  const auto drive = [&](double pause_start_s, double settle_after_s, bool own_twist = false) {
     OdometryConfig config = config_for(r, false);
     config.grazing_ring_spacings_without_imu = 0.0;
     config.search_settle_after_s = settle_after_s;
+    config.own_twist_after_gap = own_twist;
     LidarInertialOdometry odometry(config);
     const double pause_end_s = pause_start_s + 5.0;
     const Replayed run = replay(r, odometry, [&](const std::variant<ImuSample, LidarScan>& e) {
@@ -719,7 +726,61 @@ TEST(Odometry, LidarOnlyAfterAPauseTheSearchsAnswerIsSettled) {
     const AfterThePause unsettled = drive(pause_start_s, 1e9);
     EXPECT_GE(settled.inlier_ratio, unsettled.inlier_ratio) << "pause from " << pause_start_s;
     EXPECT_LT(settled.tilt_error_deg, unsettled.tilt_error_deg) << "pause from " << pause_start_s;
+    const AfterThePause by_default =
+        drive(pause_start_s, OdometryConfig{}.search_settle_after_s, true);
+    EXPECT_LT(by_default.tilt_error_deg, 0.35) << "pause from " << pause_start_s;
   }
+}
+
+// Without an IMU a sweep after a pause is deskewed with the twist of before it, and the
+// velocity registration then measures is the pause's average: where the vehicle braked or
+// sped up in the pause, both are off by part of the change. Registered with the correction
+// to its twist that its own points show (own_twist_after_gap), the sweep after the pause
+// has the speed it drove at. The pause: the 3 s of the drive's first minute in which the
+// speed changes most (from 59.5 s, by 3.15 m/s; after it the speed is 0.40 m/s off, and
+// 1.61 m/s without the correction).
+TEST(Odometry, LidarOnlyAfterAPauseTheSweepsOwnTwistIsMeasured) {
+  const Recording& r = campus_drive();
+  const auto true_speed_mps = [&](double t_s) {
+    const double t = r.config.start_utime * 1e-6 + t_s;
+    return (r.ground_truth.at(t + 0.05, 0.5)->translation() -
+            r.ground_truth.at(t - 0.05, 0.5)->translation())
+               .norm() /
+           0.1;
+  };
+  const double pause_s = 3.0;
+  double pause_start_s = 0.0;
+  double change_mps = 0.0;
+  for (double t = 15.0; t < 60.0; t += 0.5) {
+    const double change = std::abs(true_speed_mps(t + pause_s) - true_speed_mps(t));
+    if (change > change_mps) {
+      change_mps = change;
+      pause_start_s = t;
+    }
+  }
+  ASSERT_GT(change_mps, 1.5);
+  const double pause_end_s = pause_start_s + pause_s;
+  const auto speed_error_after_pause_mps = [&](bool own_twist) {
+    OdometryConfig config = config_for(r, false);
+    config.own_twist_after_gap = own_twist;
+    LidarInertialOdometry odometry(config);
+    const Replayed run = replay(r, odometry, [&](const std::variant<ImuSample, LidarScan>& e) {
+      const LidarScan* scan = std::get_if<LidarScan>(&e);
+      const double t = scan == nullptr ? 0.0 : r.seconds(scan->utime_us);
+      return t < pause_start_s || (t > pause_end_s && t < pause_end_s + 1.0);
+    });
+    EXPECT_EQ(odometry.counters().own_twists_after_gaps, own_twist ? 1 : 0);
+    for (const OdometryEstimate& e : run.estimates) {
+      const double t = r.seconds(e.utime_us);
+      if (t > pause_end_s) {
+        return std::abs(e.velocity_odom.norm() - true_speed_mps(t));
+      }
+    }
+    ADD_FAILURE() << "no sweep after the pause from " << pause_start_s << " s";
+    return 0.0;
+  };
+  EXPECT_LT(speed_error_after_pause_mps(true), 0.25 * change_mps) << change_mps;
+  EXPECT_GT(speed_error_after_pause_mps(false), 0.25 * change_mps) << change_mps;
 }
 
 // Without an IMU the constant-velocity model misses a quick swerve: another town's campus A

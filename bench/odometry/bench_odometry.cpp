@@ -96,6 +96,7 @@ struct Run {
   int64_t poor_fits_searched = 0;
   int64_t poor_fits_moved = 0;
   int64_t poor_fits_deskewed = 0;
+  int64_t own_twists_after_gaps = 0;
   int64_t lost_scans = 0;
   int64_t health_resets = 0;
   int64_t imu_disagreements = 0;
@@ -285,6 +286,7 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   run.poor_fits_searched = odometry.counters().poor_fits_searched;
   run.poor_fits_moved = odometry.counters().poor_fits_moved;
   run.poor_fits_deskewed = odometry.counters().poor_fits_deskewed;
+  run.own_twists_after_gaps = odometry.counters().own_twists_after_gaps;
   run.lost_scans = odometry.counters().lost_scans;
   run.health_resets = odometry.counters().health_resets;
   run.imu_disagreements = odometry.counters().imu_disagreements;
@@ -331,13 +333,13 @@ void print_row(const Run& r) {
       stderr, "%s %s %s IMU fault %s: %lld health resets, %lld sweeps contradicting the IMU\n",
       r.world.c_str(), r.lidar.c_str(), r.session.c_str(), r.imu_fault.c_str(),
       static_cast<long long>(r.health_resets), static_cast<long long>(r.imu_disagreements));
-  std::fprintf(stderr,
-               "%s %s %s: %lld sweeps fitting worse deskewed again, %lld fitting far worse "
-               "searched again, %lld moved\n",
-               r.world.c_str(), r.lidar.c_str(), r.session.c_str(),
-               static_cast<long long>(r.poor_fits_deskewed),
-               static_cast<long long>(r.poor_fits_searched),
-               static_cast<long long>(r.poor_fits_moved));
+  std::fprintf(
+      stderr,
+      "%s %s %s: %lld sweeps fitting worse deskewed again, %lld fitting far worse "
+      "searched again, %lld moved, %lld after a pause along their own twist\n",
+      r.world.c_str(), r.lidar.c_str(), r.session.c_str(),
+      static_cast<long long>(r.poor_fits_deskewed), static_cast<long long>(r.poor_fits_searched),
+      static_cast<long long>(r.poor_fits_moved), static_cast<long long>(r.own_twists_after_gaps));
 }
 }  // namespace
 
@@ -525,6 +527,8 @@ int main(int argc, char** argv) {
           .integer(r.poor_fits_moved)
           .key("poor_fits_deskewed")
           .integer(r.poor_fits_deskewed)
+          .key("own_twists_after_gaps")
+          .integer(r.own_twists_after_gaps)
           .key("imu_fault")
           .string(r.imu_fault)
           .key("accel_bias_error_mps2")

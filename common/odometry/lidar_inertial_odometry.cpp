@@ -398,7 +398,8 @@ Vector6d LidarInertialOdometry::measured_twist(const Sweep& sweep) const {
 }
 
 void LidarInertialOdometry::update_twist(const Sweep& sweep) {
-  twist_ = measured_twist(sweep);
+  // After a pause, the twist since the previous sweep is an average over the pause.
+  twist_ = sweep.own_twist ? *sweep.own_twist : measured_twist(sweep);
   x_.v = x_.R * twist_.head<3>();
 }
 
@@ -733,6 +734,10 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
     result = register_in_local_map(source, prior.T_target_source, prior, radius_m);
     result = outweigh_imu(sweep, source, prior, reach_m, std::move(result), est);
   }
+  if (!config_.use_imu && config_.own_twist_after_gap &&
+      sweep.gap_s() > config_.max_rotation_extrapolation_s) {
+    result = register_with_own_twist(sweep, source, prior, radius_m, result);
+  }
   if (!config_.use_imu) {
     // A searched sweep is deskewed again too: with sweeps dropped, the sweeps after the gaps
     // are searched (a third of the Mid-360's campus A patterns), and deskewed once those
@@ -912,6 +917,50 @@ RegistrationResult LidarInertialOdometry::deskew_poor_fit(Sweep& sweep,
   }
   counters_.poor_fits_deskewed += result.rms_residual_m < first_rms_m ? 1 : 0;
   return result;
+}
+
+RegistrationResult LidarInertialOdometry::register_with_own_twist(
+    Sweep& sweep, std::vector<Eigen::Vector3f>& source, const PosePrior& prior, double radius_m,
+    const RegistrationResult& result) {
+  const double duration_s = (sweep.end_utime - sweep.start_utime) * 1e-6;
+  if (!(duration_s > 0.0)) {
+    return result;  // no spread in time: nothing tells the twist
+  }
+  // Each registration point's time before the sweep's end, chosen as its point is.
+  std::vector<Eigen::Vector3f> times(sweep.sparse.size(), Eigen::Vector3f::Zero());
+  for (size_t i = 0; i < times.size(); ++i) {
+    times[i].x() = static_cast<float>(sweep.sparse[i].time_offset_s - duration_s);
+  }
+  times = registration_points(times);
+  std::vector<double> tau_s(times.size());
+  for (size_t i = 0; i < times.size(); ++i) {
+    tau_s[i] = times[i].x();
+  }
+  // The twist the sweep was deskewed with, in its end's body frame.
+  const Eigen::Isometry3d T_end_start =
+      sweep.motion.pose_at(sweep.end_utime).inverse() * sweep.motion.pose_at(sweep.start_utime);
+  Vector6d deskewed_with;
+  deskewed_with.head<3>() = -T_end_start.translation() / duration_s;
+  deskewed_with.tail<3>() = -so3::log(T_end_start.linear()) / duration_s;
+  Matrix6d twist_information = Matrix6d::Zero();
+  twist_information.diagonal().head<3>().setConstant(
+      1.0 / (config_.motion_translation_sigma_mps * config_.motion_translation_sigma_mps));
+  twist_information.diagonal().tail<3>().setConstant(
+      1.0 / (config_.motion_rotation_sigma_rps * config_.motion_rotation_sigma_rps));
+  const TwistRegistrationResult joint = register_point_to_plane_with_twist(
+      source, tau_s, map_, result.T_target_source, prior, twist_information,
+      registration_config(radius_m), T_body_lidar_.translation());
+  // The correction is first order in the sweep's time; deskewed along the corrected twist and
+  // registered again, the points the local map takes are deskewed exactly.
+  const Vector6d own = deskewed_with + joint.twist_correction;
+  sweep.motion =
+      constant_twist_motion(joint.pose.T_target_source, sweep.start_utime, sweep.end_utime, own);
+  sweep.points_body =
+      deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, sweep.motion, T_body_lidar_);
+  sweep.own_twist = own;
+  source = registration_points(sweep.points_body);
+  ++counters_.own_twists_after_gaps;
+  return register_in_local_map(source, joint.pose.T_target_source, prior, radius_m);
 }
 
 RegistrationResult LidarInertialOdometry::search_poor_fit(

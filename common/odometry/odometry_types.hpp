@@ -116,6 +116,9 @@ struct OdometryCounters {
   // Without an IMU: fit worse than the sweeps before and deskewed again, fitting better
   // (poor_fit_deskew_factor).
   int64_t poor_fits_deskewed = 0;
+  // Without an IMU: after a pause, registered with the twist its own points showed
+  // (own_twist_after_gap).
+  int64_t own_twists_after_gaps = 0;
   int64_t lost_scans = 0;        // estimates with a lost_reason
   int64_t standstill_scans = 0;  // zero-velocity updates applied
   int64_t keyframes = 0;

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
+#include <utility>
 
 namespace liloc {
 namespace {
@@ -13,10 +15,12 @@ constexpr int kNeighbors = 5;  // the plane through 5 neighbours, paper Eq. 6
 // (m, 1 sigma).
 constexpr double kMinSpread = 0.05;
 
-// Normal equations accumulated over matched points.
+// Normal equations accumulated over matched points, over the pose (N = 6) or the pose and
+// a correction to the sweep's twist (N = 12).
+template <int N>
 struct Accumulator {
-  Matrix6d H = Matrix6d::Zero();
-  Vector6d g = Vector6d::Zero();
+  Eigen::Matrix<double, N, N> H = Eigen::Matrix<double, N, N>::Zero();
+  Eigen::Matrix<double, N, 1> g = Eigen::Matrix<double, N, 1>::Zero();
   double cost = 0.0;
   double squared_residuals = 0.0;
   int count = 0;
@@ -31,11 +35,31 @@ struct Accumulator {
 };
 
 struct Match {
-  Eigen::Vector3d point_source;
+  Eigen::Vector3d point_source;  // as given, before a twist correction moves it
+  double tau_s;                  // its time before the sweep's end (0 without times)
   Eigen::Vector3d normal;
   double offset;
   double weight;  // planarity ("roughness") weight of Eq. 6
 };
+
+// What the solver moves: the pose, and the correction to the twist the sweep was deskewed with
+// (body frame at its end, [v; omega]).
+struct Estimate {
+  Eigen::Isometry3d T;
+  Vector6d twist = Vector6d::Zero();
+};
+
+// The sweep's points and their times; without times only the pose is estimated.
+struct TimedSource {
+  const std::vector<Eigen::Vector3f>& points;
+  const std::vector<double>& tau_s;  // empty, or one per point (s, at most 0)
+};
+
+// Point p, tau before the sweep's end, deskewed with a twist off by `twist`: to first order
+// the body was at Exp(tau twist) relative to where the deskew put it.
+Eigen::Vector3d moved(const Eigen::Vector3d& p, double tau_s, const Vector6d& twist) {
+  return p + tau_s * (twist.head<3>() + twist.tail<3>().cross(p));
+}
 
 double cauchy_weight(double r, double scale) { return 1.0 / (1.0 + (r * r) / (scale * scale)); }
 
@@ -83,18 +107,25 @@ double cauchy_cost(double r, double scale) {
   return 0.5 * scale * scale * std::log1p((r * r) / (scale * scale));
 }
 
-// Matches every source point, at the current pose, to the plane of its neighbours.
-std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const VoxelHashMap& map,
-                             const Eigen::Isometry3d& T, const RegistrationConfig& config,
+// Matches every source point, at the current estimate, to the plane of its neighbours.
+std::vector<Match> associate(const TimedSource& source, const VoxelHashMap& map,
+                             const Estimate& estimate, const RegistrationConfig& config,
                              const Eigen::Vector3d& sensor_origin_source) {
-  std::vector<Match> matches(source.size());
-  std::vector<char> valid(source.size(), 0);
+  const size_t count = source.points.size();
+  const bool timed = !source.tau_s.empty();
+  std::vector<Match> matches(count);
+  std::vector<char> valid(count, 0);
+  const Eigen::Isometry3d& T = estimate.T;
   const Eigen::Isometry3f Tf = T.cast<float>();
   const float radius = static_cast<float>(config.max_correspondence_m);
   const Eigen::Vector3d sensor_target = T * sensor_origin_source;
 #pragma omp parallel for num_threads(config.threads) schedule(static)
-  for (size_t i = 0; i < source.size(); ++i) {
-    const Eigen::Vector3f q = Tf * source[i];
+  for (size_t i = 0; i < count; ++i) {
+    const double tau_s = timed ? source.tau_s[i] : 0.0;
+    const Eigen::Vector3f p =
+        timed ? moved(source.points[i].cast<double>(), tau_s, estimate.twist).cast<float>()
+              : source.points[i];
+    const Eigen::Vector3f q = Tf * p;
     const Neighbors<kNeighbors> n = map.nearest<kNeighbors>(q, radius);
     if (n.count < kNeighbors) {
       continue;
@@ -104,7 +135,7 @@ std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const V
     if (!plane) {
       continue;
     }
-    const Eigen::Vector3d ray = (source[i].cast<double>() - sensor_origin_source).normalized();
+    const Eigen::Vector3d ray = (p.cast<double>() - sensor_origin_source).normalized();
     if (std::abs(plane->normal.dot(T.linear() * ray)) < config.min_incidence_cos ||
         far_ceiling(*plane, q.cast<double>(), sensor_target, config.far_ceiling_beyond_m) ||
         (config.reject_back_faces &&
@@ -112,13 +143,13 @@ std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const V
                               config.back_face_min_offset_m))) {
       continue;
     }
-    matches[i] = {source[i].cast<double>(), plane->normal, plane->offset,
+    matches[i] = {source.points[i].cast<double>(), tau_s, plane->normal, plane->offset,
                   1.0 - plane->thickness_m / config.max_plane_thickness_m * 0.5};
     valid[i] = 1;
   }
   std::vector<Match> out;
-  out.reserve(source.size());
-  for (size_t i = 0; i < source.size(); ++i) {
+  out.reserve(count);
+  for (size_t i = 0; i < count; ++i) {
     if (valid[i]) {
       out.push_back(matches[i]);
     }
@@ -126,25 +157,33 @@ std::vector<Match> associate(const std::vector<Eigen::Vector3f>& source, const V
   return out;
 }
 
-// Residuals, Jacobians and robust weights at pose T; the Hessian and gradient of
-// 0.5 * sum w rho(r) / sigma^2 over the right perturbation T Exp(xi).
-Accumulator linearize(const std::vector<Match>& matches, const Eigen::Isometry3d& T,
-                      const RegistrationConfig& config) {
-  const Eigen::Matrix3d& R = T.linear();
-  const Eigen::Vector3d& t = T.translation();
+// Residuals, Jacobians and robust weights at the estimate; the Hessian and gradient of
+// 0.5 * sum w rho(r) / sigma^2 over the right perturbation T Exp(xi) (and, N = 12, the twist
+// correction).
+template <int N>
+Accumulator<N> linearize(const std::vector<Match>& matches, const Estimate& estimate,
+                         const RegistrationConfig& config) {
+  const Eigen::Matrix3d& R = estimate.T.linear();
+  const Eigen::Vector3d& t = estimate.T.translation();
   const double info = 1.0 / (config.point_sigma_m * config.point_sigma_m);
-  Accumulator total;
+  Accumulator<N> total;
 #pragma omp parallel num_threads(config.threads)
   {
-    Accumulator local;
+    Accumulator<N> local;
 #pragma omp for schedule(static) nowait
     for (size_t i = 0; i < matches.size(); ++i) {
       const Match& m = matches[i];
-      const double r = m.normal.dot(R * m.point_source + t) + m.offset;
+      const Eigen::Vector3d q =
+          N == 12 ? moved(m.point_source, m.tau_s, estimate.twist) : m.point_source;
+      const double r = m.normal.dot(R * q + t) + m.offset;
       const Eigen::Vector3d n_source = R.transpose() * m.normal;
-      Vector6d J;
-      J.head<3>() = n_source;                        // d r / d rho = n^T R
-      J.tail<3>() = m.point_source.cross(n_source);  // d r / d phi = -n^T R [p]x
+      Eigen::Matrix<double, N, 1> J;
+      J.template head<3>() = n_source;               // d r / d rho = n^T R
+      J.template segment<3>(3) = q.cross(n_source);  // d r / d phi = -n^T R [p]x
+      if constexpr (N == 12) {                       // the twist's correction acts for tau
+        J.template segment<3>(6) = m.tau_s * n_source;
+        J.template tail<3>() = m.tau_s * m.point_source.cross(n_source);
+      }
       const double w = m.weight * info * cauchy_weight(r, config.cauchy_scale_m);
       local.H.noalias() += w * J * J.transpose();
       local.g.noalias() += w * r * J;
@@ -158,12 +197,31 @@ Accumulator linearize(const std::vector<Match>& matches, const Eigen::Isometry3d
   return total;
 }
 
-// Prior residual at T: e = T [-] T_prior, with its (approximately identity) Jacobian.
-void add_prior(const PosePrior& prior, const Eigen::Isometry3d& T, Accumulator& acc) {
-  const Vector6d e = se3::minus(T, prior.T_target_source);
-  acc.H += prior.information;
-  acc.g += prior.information * e;
-  acc.cost += 0.5 * e.dot(prior.information * e);
+// Prior residuals at the estimate: the pose's e = T [-] T_prior, with its (approximately
+// identity) Jacobian, and the twist correction's, zero-mean.
+template <int N>
+void add_priors(const std::optional<PosePrior>& prior, const Matrix6d& twist_information,
+                const Estimate& estimate, Accumulator<N>& acc) {
+  if (prior) {
+    const Vector6d e = se3::minus(estimate.T, prior->T_target_source);
+    acc.H.template topLeftCorner<6, 6>() += prior->information;
+    acc.g.template head<6>() += prior->information * e;
+    acc.cost += 0.5 * e.dot(prior->information * e);
+  }
+  if constexpr (N == 12) {
+    acc.H.template bottomRightCorner<6, 6>() += twist_information;
+    acc.g.template tail<6>() += twist_information * estimate.twist;
+    acc.cost += 0.5 * estimate.twist.dot(twist_information * estimate.twist);
+  }
+}
+
+template <int N>
+Estimate plus(const Estimate& estimate, const Eigen::Matrix<double, N, 1>& step) {
+  Estimate out{se3::plus(estimate.T, step.template head<6>()), estimate.twist};
+  if constexpr (N == 12) {
+    out.twist += step.template tail<6>();
+  }
+  return out;
 }
 
 double eigen_ratio(const Eigen::Matrix3d& block) {
@@ -268,48 +326,62 @@ std::optional<Plane> fit_plane(const Eigen::Vector3f* points, int count, double 
   return Plane{normal, -normal.dot(mean), thickness};
 }
 
-RegistrationResult register_point_to_plane(const std::vector<Eigen::Vector3f>& source,
-                                           const VoxelHashMap& target,
-                                           const Eigen::Isometry3d& T_target_source_guess,
-                                           const std::optional<PosePrior>& prior,
-                                           const RegistrationConfig& config,
-                                           const Eigen::Vector3d& sensor_origin_source) {
-  RegistrationResult result;
-  Eigen::Isometry3d T = T_target_source_guess;
+namespace {
+
+// Levenberg-Marquardt from the guess, re-associating between the first iterations. Fills
+// `result` from the last correspondences and returns the estimate with the information of
+// the residuals alone.
+template <int N>
+std::pair<Estimate, Eigen::Matrix<double, N, N>> solve(
+    const TimedSource& source, const VoxelHashMap& target, Estimate estimate,
+    const std::optional<PosePrior>& prior, const Matrix6d& twist_information,
+    const RegistrationConfig& config, const Eigen::Vector3d& sensor_origin_source,
+    RegistrationResult& result) {
+  using VectorN = Eigen::Matrix<double, N, 1>;
+  using MatrixN = Eigen::Matrix<double, N, N>;
   double lambda = 1e-6;  // Levenberg-Marquardt damping, relative to the diagonal
-  std::vector<Match> matches;
-  const auto small = [&](const Vector6d& step) {
-    return step.head<3>().norm() < config.convergence_translation_m &&
-           step.tail<3>().norm() < config.convergence_rotation_rad;
+  // A twist correction's step is small when it moves the sweep's earliest point by less than
+  // the pose's thresholds.
+  double longest_tau_s = 0.0;
+  for (const double tau_s : source.tau_s) {
+    longest_tau_s = std::max(longest_tau_s, std::abs(tau_s));
+  }
+  const auto small = [&](const VectorN& step) {
+    bool below = step.template head<3>().norm() < config.convergence_translation_m &&
+                 step.template segment<3>(3).norm() < config.convergence_rotation_rad;
+    if constexpr (N == 12) {
+      below =
+          below &&
+          step.template segment<3>(6).norm() * longest_tau_s < config.convergence_translation_m &&
+          step.template tail<3>().norm() * longest_tau_s < config.convergence_rotation_rad;
+    }
+    return below;
   };
+  std::vector<Match> matches;
   for (int iteration = 0; iteration < config.max_iterations; ++iteration) {
     result.iterations = iteration + 1;
-    // Re-associate while the pose still moves much; later steps refine with the same
+    // Re-associate while the estimate still moves much; later steps refine with the same
     // planes, which costs a fraction of a search.
     if (iteration < config.max_associations) {
-      matches = associate(source, target, T, config, sensor_origin_source);
+      matches = associate(source, target, estimate, config, sensor_origin_source);
     }
-    Accumulator acc = linearize(matches, T, config);
-    if (prior) {
-      add_prior(*prior, T, acc);
-    }
-    if (acc.count < 6 && !prior) {
+    Accumulator<N> acc = linearize<N>(matches, estimate, config);
+    add_priors(prior, twist_information, estimate, acc);
+    if (acc.count < N && !prior) {
       break;  // nothing to register against
     }
     // LM: accept the step if it lowers the cost with these correspondences, else damp.
-    Vector6d step = Vector6d::Zero();
+    VectorN step = VectorN::Zero();
     bool accepted = false;
     for (int attempt = 0; attempt < 8 && !accepted; ++attempt) {
-      Matrix6d A = acc.H;
+      MatrixN A = acc.H;
       A.diagonal() += lambda * acc.H.diagonal().cwiseMax(1e-9);
       step = -A.ldlt().solve(acc.g);
-      const Eigen::Isometry3d candidate = se3::plus(T, step);
-      Accumulator next = linearize(matches, candidate, config);
-      if (prior) {
-        add_prior(*prior, candidate, next);
-      }
+      const Estimate candidate = plus<N>(estimate, step);
+      Accumulator<N> next = linearize<N>(matches, candidate, config);
+      add_priors(prior, twist_information, candidate, next);
       if (next.cost <= acc.cost) {
-        T = candidate;
+        estimate = candidate;
         lambda = std::max(lambda * 0.1, 1e-9);
         accepted = true;
       } else {
@@ -319,7 +391,7 @@ RegistrationResult register_point_to_plane(const std::vector<Eigen::Vector3f>& s
     if (!accepted) {
       // Stalled: converged only if even the undamped step is below the thresholds (the
       // cost cannot fall further at machine precision), not when the steps are refused.
-      const Vector6d undamped = -acc.H.ldlt().solve(acc.g);
+      const VectorN undamped = -acc.H.ldlt().solve(acc.g);
       result.converged = undamped.allFinite() && small(undamped);
       break;
     }
@@ -330,17 +402,52 @@ RegistrationResult register_point_to_plane(const std::vector<Eigen::Vector3f>& s
   }
   // The information at the solution, from the last correspondences (a final search
   // would cost as much as an iteration and changes nothing once converged).
-  const Accumulator final_acc = linearize(matches, T, config);
-  result.T_target_source = T;
-  result.information = final_acc.H;
+  const Accumulator<N> final_acc = linearize<N>(matches, estimate, config);
+  const Matrix6d pose_information = final_acc.H.template topLeftCorner<6, 6>();
+  result.T_target_source = estimate.T;
+  result.information = pose_information;
   result.correspondences = final_acc.count;
   result.rms_residual_m =
       final_acc.count > 0 ? std::sqrt(final_acc.squared_residuals / final_acc.count) : 0.0;
-  result.translation_eigen_ratio = eigen_ratio(final_acc.H.topLeftCorner<3, 3>());
-  result.rotation_eigen_ratio = eigen_ratio(final_acc.H.bottomRightCorner<3, 3>());
+  result.translation_eigen_ratio = eigen_ratio(pose_information.topLeftCorner<3, 3>());
+  result.rotation_eigen_ratio = eigen_ratio(pose_information.bottomRightCorner<3, 3>());
   result.degenerate = result.translation_eigen_ratio < config.degeneracy_ratio ||
                       result.rotation_eigen_ratio < config.degeneracy_ratio;
+  return {estimate, final_acc.H};
+}
+
+}  // namespace
+
+RegistrationResult register_point_to_plane(const std::vector<Eigen::Vector3f>& source,
+                                           const VoxelHashMap& target,
+                                           const Eigen::Isometry3d& T_target_source_guess,
+                                           const std::optional<PosePrior>& prior,
+                                           const RegistrationConfig& config,
+                                           const Eigen::Vector3d& sensor_origin_source) {
+  static const std::vector<double> kUntimed;
+  RegistrationResult result;
+  solve<6>(TimedSource{source, kUntimed}, target, Estimate{T_target_source_guess}, prior,
+           Matrix6d::Zero(), config, sensor_origin_source, result);
   return result;
+}
+
+TwistRegistrationResult register_point_to_plane_with_twist(
+    const std::vector<Eigen::Vector3f>& source, const std::vector<double>& tau_s,
+    const VoxelHashMap& target, const Eigen::Isometry3d& T_target_source_guess,
+    const std::optional<PosePrior>& prior, const Matrix6d& twist_information,
+    const RegistrationConfig& config, const Eigen::Vector3d& sensor_origin_source) {
+  if (tau_s.size() != source.size()) {
+    throw std::invalid_argument(
+        "register_point_to_plane_with_twist: " + std::to_string(tau_s.size()) + " times for " +
+        std::to_string(source.size()) + " points");
+  }
+  TwistRegistrationResult out;
+  const auto [estimate, information] =
+      solve<12>(TimedSource{source, tau_s}, target, Estimate{T_target_source_guess}, prior,
+                twist_information, config, sensor_origin_source, out.pose);
+  out.twist_correction = estimate.twist;
+  out.twist_information = information.bottomRightCorner<6, 6>();
+  return out;
 }
 
 }  // namespace liloc

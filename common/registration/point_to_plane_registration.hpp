@@ -161,4 +161,21 @@ RegistrationResult register_point_to_plane(
     const RegistrationConfig& config,
     const Eigen::Vector3d& sensor_origin_source = Eigen::Vector3d::Zero());
 
+// A sweep deskewed with a twist in doubt (without an IMU, after a gap: the twist of before
+// it) is registered together with the correction to that twist its own points show: point i,
+// tau_s[i] (<= 0) before the sweep's end, moves to first order by tau (v + omega x p), which a
+// pose alone cannot absorb. twist_information is a zero-mean prior on the correction.
+struct TwistRegistrationResult {
+  RegistrationResult pose;  // T_target_source at the sweep's end
+  // Body frame at the sweep's end: [v (m/s); omega (rad/s)], to add to the deskew's twist.
+  Vector6d twist_correction = Vector6d::Zero();
+  Matrix6d twist_information = Matrix6d::Zero();  // of the residuals alone, the pose held
+};
+TwistRegistrationResult register_point_to_plane_with_twist(
+    const std::vector<Eigen::Vector3f>& source, const std::vector<double>& tau_s,
+    const VoxelHashMap& target, const Eigen::Isometry3d& T_target_source_guess,
+    const std::optional<PosePrior>& prior, const Matrix6d& twist_information,
+    const RegistrationConfig& config,
+    const Eigen::Vector3d& sensor_origin_source = Eigen::Vector3d::Zero());
+
 }  // namespace liloc
