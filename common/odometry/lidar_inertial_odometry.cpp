@@ -926,16 +926,14 @@ RegistrationResult LidarInertialOdometry::register_with_own_twist(
   if (!(duration_s > 0.0)) {
     return result;  // no spread in time: nothing tells the twist
   }
-  // Each registration point's time before the sweep's end, chosen as its point is.
-  std::vector<Eigen::Vector3f> times(sweep.sparse.size(), Eigen::Vector3f::Zero());
-  for (size_t i = 0; i < times.size(); ++i) {
-    times[i].x() = static_cast<float>(sweep.sparse[i].time_offset_s - duration_s);
+  // Each registration point's time before the sweep's end, chosen as registration_points()
+  // chooses its point.
+  std::vector<double> tau_s;
+  tau_s.reserve(sweep.sparse.size());
+  for (const LidarPoint& p : sweep.sparse) {
+    tau_s.push_back(static_cast<float>(p.time_offset_s - duration_s));
   }
-  times = registration_points(times);
-  std::vector<double> tau_s(times.size());
-  for (size_t i = 0; i < times.size(); ++i) {
-    tau_s[i] = times[i].x();
-  }
+  tau_s = evenly_spaced(tau_s, static_cast<size_t>(config_.max_registration_points));
   // The twist the sweep was deskewed with, in its end's body frame.
   const Eigen::Isometry3d T_end_start =
       sweep.motion.pose_at(sweep.end_utime).inverse() * sweep.motion.pose_at(sweep.start_utime);

@@ -53,20 +53,6 @@ PointCloud voxel_downsample(const PointCloud& cloud, float voxel_m) {
   return out;
 }
 
-std::vector<Eigen::Vector3f> evenly_spaced(const std::vector<Eigen::Vector3f>& points,
-                                           size_t max_points) {
-  if (points.size() <= max_points) {
-    return points;
-  }
-  std::vector<Eigen::Vector3f> out;
-  out.reserve(max_points);
-  const double stride = static_cast<double>(points.size()) / static_cast<double>(max_points);
-  for (size_t i = 0; i < max_points; ++i) {
-    out.push_back(points[static_cast<size_t>(static_cast<double>(i) * stride)]);
-  }
-  return out;
-}
-
 std::vector<Eigen::Vector3f> sparse_points(const PointCloud& cloud, float voxel_m,
                                            size_t max_points) {
   return evenly_spaced(voxel_downsample(cloud, voxel_m).points, max_points);
