@@ -149,6 +149,8 @@ void OdometryConfig::validate() const {
                     {"standstill_velocity_sigma_mps", standstill_velocity_sigma_mps},
                     {"motion_translation_sigma_mps", motion_translation_sigma_mps},
                     {"motion_rotation_sigma_rps", motion_rotation_sigma_rps},
+                    {"own_twist_vertical_sigma_mps", own_twist_vertical_sigma_mps},
+                    {"own_twist_tilt_rate_sigma_rps", own_twist_tilt_rate_sigma_rps},
                     {"max_rotation_extrapolation_s", max_rotation_extrapolation_s},
                     {"long_gap_s", long_gap_s},
                     {"long_gap_search_m", long_gap_search_m},
@@ -940,11 +942,13 @@ RegistrationResult LidarInertialOdometry::register_with_own_twist(
   Vector6d deskewed_with;
   deskewed_with.head<3>() = -T_end_start.translation() / duration_s;
   deskewed_with.tail<3>() = -so3::log(T_end_start.linear()) / duration_s;
-  Matrix6d twist_information = Matrix6d::Zero();
-  twist_information.diagonal().head<3>().setConstant(
-      1.0 / (config_.motion_translation_sigma_mps * config_.motion_translation_sigma_mps));
-  twist_information.diagonal().tail<3>().setConstant(
-      1.0 / (config_.motion_rotation_sigma_rps * config_.motion_rotation_sigma_rps));
+  // Prior sigmas of the correction (dv, dw) in the body frame: z is up, x and y of dw are the
+  // roll and pitch rates.
+  Vector6d sigma;
+  sigma << config_.motion_translation_sigma_mps, config_.motion_translation_sigma_mps,
+      config_.own_twist_vertical_sigma_mps, config_.own_twist_tilt_rate_sigma_rps,
+      config_.own_twist_tilt_rate_sigma_rps, config_.motion_rotation_sigma_rps;
+  const Matrix6d twist_information = sigma.array().square().inverse().matrix().asDiagonal();
   const TwistRegistrationResult joint = register_point_to_plane_with_twist(
       source, tau_s, map_, result.T_target_source, prior, twist_information,
       registration_config(radius_m), T_body_lidar_.translation());
