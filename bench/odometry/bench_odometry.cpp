@@ -88,20 +88,8 @@ struct Run {
   double rss_quarter_mb = 0.0;
   double rss_end_mb = 0.0;
   size_t map_points = 0;
-  int64_t degenerate_scans = 0;
-  int64_t searched_scans = 0;
-  int64_t second_guesses = 0;
-  int64_t map_restarts = 0;
-  int64_t reanchors = 0;
-  int64_t poor_fits_searched = 0;
-  int64_t poor_fits_moved = 0;
-  int64_t poor_fits_deskewed = 0;
-  int64_t own_twists_after_gaps = 0;
-  int64_t lost_scans = 0;
-  int64_t health_resets = 0;
-  int64_t imu_disagreements = 0;
+  OdometryCounters counters;  // the odometry's, at the session's end
   std::string imu_fault = "none";
-  int64_t keyframes = 0;
   double accel_bias_error = 0.0;
   double gyro_bias_error = 0.0;
 };
@@ -278,20 +266,8 @@ Run run_session(const std::string& world_kind, const std::string& lidar, const s
   run.peak_rss_mb = read_process_memory().peak_mb;
   run.longest_gap_s = dropper.longest_gap_s();
   run.map_points = odometry.map_points();
-  run.degenerate_scans = odometry.counters().degenerate_scans;
-  run.searched_scans = odometry.counters().searched_scans;
-  run.second_guesses = odometry.counters().second_guesses;
-  run.map_restarts = odometry.counters().map_restarts;
-  run.reanchors = odometry.counters().reanchors;
-  run.poor_fits_searched = odometry.counters().poor_fits_searched;
-  run.poor_fits_moved = odometry.counters().poor_fits_moved;
-  run.poor_fits_deskewed = odometry.counters().poor_fits_deskewed;
-  run.own_twists_after_gaps = odometry.counters().own_twists_after_gaps;
-  run.lost_scans = odometry.counters().lost_scans;
-  run.health_resets = odometry.counters().health_resets;
-  run.imu_disagreements = odometry.counters().imu_disagreements;
+  run.counters = odometry.counters();
   run.imu_fault = imu_fault.describe();
-  run.keyframes = odometry.counters().keyframes;
   if (use_imu) {
     // The true biases drift only a little (random walk) from their turn-on values.
     run.accel_bias_error = (odometry.state().ba - simulator.initial_accel_bias()).norm();
@@ -319,27 +295,30 @@ void print_row(const Run& r) {
       r.longest_gap_s, r.metrics.path_length_m, r.metrics.ate_position_rmse_m,
       r.metrics.rpe_translation_percent, r.metrics.rpe_rotation_deg_per_100m, r.latency.median_ms,
       r.latency.p99_ms, r.latency.max_ms, r.rss_quarter_mb, r.rss_end_mb, r.peak_rss_mb,
-      r.map_points, static_cast<long long>(r.degenerate_scans),
-      static_cast<long long>(r.searched_scans), static_cast<long long>(r.second_guesses),
-      static_cast<long long>(r.lost_scans), static_cast<long long>(r.map_restarts),
-      static_cast<long long>(r.reanchors), r.accel_bias_error, r.gyro_bias_error,
-      r.stage_median_ms[0], r.stage_median_ms[1], r.stage_median_ms[2], r.stage_median_ms[3],
-      r.stage_median_ms[4]);
+      r.map_points, static_cast<long long>(r.counters.degenerate_scans),
+      static_cast<long long>(r.counters.searched_scans),
+      static_cast<long long>(r.counters.second_guesses),
+      static_cast<long long>(r.counters.lost_scans),
+      static_cast<long long>(r.counters.map_restarts), static_cast<long long>(r.counters.reanchors),
+      r.accel_bias_error, r.gyro_bias_error, r.stage_median_ms[0], r.stage_median_ms[1],
+      r.stage_median_ms[2], r.stage_median_ms[3], r.stage_median_ms[4]);
   std::fflush(stdout);
   std::fprintf(stderr, "%s %s %s rig %s: extrinsic check at %.1f s: %s\n", r.world.c_str(),
                r.lidar.c_str(), r.session.c_str(), r.misconfig.c_str(), r.extrinsic_check_at_s,
                r.extrinsic_check.empty() ? "(none)" : r.extrinsic_check.c_str());
-  std::fprintf(
-      stderr, "%s %s %s IMU fault %s: %lld health resets, %lld sweeps contradicting the IMU\n",
-      r.world.c_str(), r.lidar.c_str(), r.session.c_str(), r.imu_fault.c_str(),
-      static_cast<long long>(r.health_resets), static_cast<long long>(r.imu_disagreements));
-  std::fprintf(
-      stderr,
-      "%s %s %s: %lld sweeps fitting worse deskewed again, %lld fitting far worse "
-      "searched again, %lld moved, %lld after a pause along their own twist\n",
-      r.world.c_str(), r.lidar.c_str(), r.session.c_str(),
-      static_cast<long long>(r.poor_fits_deskewed), static_cast<long long>(r.poor_fits_searched),
-      static_cast<long long>(r.poor_fits_moved), static_cast<long long>(r.own_twists_after_gaps));
+  std::fprintf(stderr,
+               "%s %s %s IMU fault %s: %lld health resets, %lld sweeps contradicting the IMU\n",
+               r.world.c_str(), r.lidar.c_str(), r.session.c_str(), r.imu_fault.c_str(),
+               static_cast<long long>(r.counters.health_resets),
+               static_cast<long long>(r.counters.imu_disagreements));
+  std::fprintf(stderr,
+               "%s %s %s: %lld sweeps fitting worse deskewed again, %lld fitting far worse "
+               "searched again, %lld moved, %lld after a pause along their own twist\n",
+               r.world.c_str(), r.lidar.c_str(), r.session.c_str(),
+               static_cast<long long>(r.counters.poor_fits_deskewed),
+               static_cast<long long>(r.counters.poor_fits_searched),
+               static_cast<long long>(r.counters.poor_fits_moved),
+               static_cast<long long>(r.counters.own_twists_after_gaps));
 }
 }  // namespace
 
@@ -506,29 +485,29 @@ int main(int argc, char** argv) {
           .key("map_points")
           .integer(static_cast<int64_t>(r.map_points))
           .key("degenerate_scans")
-          .integer(r.degenerate_scans)
+          .integer(r.counters.degenerate_scans)
           .key("searched_scans")
-          .integer(r.searched_scans)
+          .integer(r.counters.searched_scans)
           .key("second_guesses")
-          .integer(r.second_guesses)
+          .integer(r.counters.second_guesses)
           .key("lost_scans")
-          .integer(r.lost_scans)
+          .integer(r.counters.lost_scans)
           .key("map_restarts")
-          .integer(r.map_restarts)
+          .integer(r.counters.map_restarts)
           .key("reanchors")
-          .integer(r.reanchors)
+          .integer(r.counters.reanchors)
           .key("health_resets")
-          .integer(r.health_resets)
+          .integer(r.counters.health_resets)
           .key("imu_disagreements")
-          .integer(r.imu_disagreements)
+          .integer(r.counters.imu_disagreements)
           .key("poor_fits_searched")
-          .integer(r.poor_fits_searched)
+          .integer(r.counters.poor_fits_searched)
           .key("poor_fits_moved")
-          .integer(r.poor_fits_moved)
+          .integer(r.counters.poor_fits_moved)
           .key("poor_fits_deskewed")
-          .integer(r.poor_fits_deskewed)
+          .integer(r.counters.poor_fits_deskewed)
           .key("own_twists_after_gaps")
-          .integer(r.own_twists_after_gaps)
+          .integer(r.counters.own_twists_after_gaps)
           .key("imu_fault")
           .string(r.imu_fault)
           .key("accel_bias_error_mps2")
