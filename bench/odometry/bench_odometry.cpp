@@ -311,14 +311,17 @@ void print_row(const Run& r) {
                r.world.c_str(), r.lidar.c_str(), r.session.c_str(), r.imu_fault.c_str(),
                static_cast<long long>(r.counters.health_resets),
                static_cast<long long>(r.counters.imu_disagreements));
-  std::fprintf(stderr,
-               "%s %s %s: %lld sweeps fitting worse deskewed again, %lld fitting far worse "
-               "searched again, %lld moved, %lld after a pause along their own twist\n",
-               r.world.c_str(), r.lidar.c_str(), r.session.c_str(),
-               static_cast<long long>(r.counters.poor_fits_deskewed),
-               static_cast<long long>(r.counters.poor_fits_searched),
-               static_cast<long long>(r.counters.poor_fits_moved),
-               static_cast<long long>(r.counters.own_twists_after_gaps));
+  std::fprintf(
+      stderr,
+      "%s %s %s: %lld sweeps fitting worse deskewed again, %lld fitting far worse "
+      "searched again, %lld moved, %lld after a pause along their own twist, %lld placed in "
+      "a young local map\n",
+      r.world.c_str(), r.lidar.c_str(), r.session.c_str(),
+      static_cast<long long>(r.counters.poor_fits_deskewed),
+      static_cast<long long>(r.counters.poor_fits_searched),
+      static_cast<long long>(r.counters.poor_fits_moved),
+      static_cast<long long>(r.counters.own_twists_after_gaps),
+      static_cast<long long>(r.counters.young_map_searches_accepted));
 }
 }  // namespace
 
@@ -508,6 +511,8 @@ int main(int argc, char** argv) {
           .integer(r.counters.poor_fits_deskewed)
           .key("own_twists_after_gaps")
           .integer(r.counters.own_twists_after_gaps)
+          .key("young_map_searches_accepted")
+          .integer(r.counters.young_map_searches_accepted)
           .key("imu_fault")
           .string(r.imu_fault)
           .key("accel_bias_error_mps2")

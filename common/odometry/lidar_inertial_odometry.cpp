@@ -87,6 +87,9 @@ void OdometryConfig::validate() const {
     throw std::invalid_argument(
         "uncertain_iterations and search_confirming_starts must be at least 1");
   }
+  if (young_map_inserts < 0) {
+    throw std::invalid_argument("young_map_inserts must be at least 0 (0: no young-map floor)");
+  }
   if (!(second_guess_window_s >= 0)) {
     throw std::invalid_argument("second_guess_window_s must be at least 0 (0: one guess)");
   }
@@ -168,6 +171,7 @@ void OdometryConfig::validate() const {
                     {"search_agree_m", search_agree_m},
                     {"search_agree_rad", search_agree_rad},
                     {"search_runner_up_fraction", search_runner_up_fraction},
+                    {"young_map_confirmed_inlier_ratio", young_map_confirmed_inlier_ratio},
                     {"search_settle_after_s", search_settle_after_s},
                     {"poor_fit_search_m", poor_fit_search_m},
                     {"poor_fit_search_yaw_rad", poor_fit_search_yaw_rad},
@@ -701,7 +705,7 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
     const bool settle = !config_.use_imu && sweep.unregistered_s() > config_.search_settle_after_s;
     SearchOutcome found =
         register_by_search(map_, source, SearchSource::kSweep, guesses, reach_m, settle);
-    if (!search_accepts(found, false)) {
+    if (!search_accepts(found, false, local_map_confirmed_inlier_ratio())) {
       // The sweep sees what the local map never did (around a corner, after a long pause):
       // nothing to place it against, so the local map restarts from it at the predicted
       // pose rather than take a pose that fits a few points, or, after a pause without an
@@ -729,6 +733,9 @@ void LidarInertialOdometry::register_sweep(Sweep& sweep, OdometryEstimate& est) 
       }
       restart_keeping_anchor(prior.information, reach_m, T_predicted_restarted);
       return;
+    }
+    if (!search_accepts(found, false, config_.search_confirmed_inlier_ratio)) {
+      ++counters_.young_map_searches_accepted;
     }
     result = std::move(found.result);
     est.inlier_ratio = found.inlier_ratio;
@@ -955,8 +962,13 @@ RegistrationResult LidarInertialOdometry::register_with_own_twist(
   // The correction is first order in the sweep's time; deskewed along the corrected twist and
   // registered again, the points the local map takes are deskewed exactly.
   const Vector6d own = deskewed_with + joint.twist_correction;
-  sweep.motion =
-      constant_twist_motion(joint.pose.T_target_source, sweep.start_utime, sweep.end_utime, own);
+  // The sweep's twist in its start's body frame, as constant_twist_motion reads it: the
+  // end frame's velocity turned back by the sweep's rotation (0.05 rad in a turn at 0.5
+  // rad/s, a lateral 0.35 m/s at 7 m/s). The end frame's is the next prediction's twist.
+  Vector6d own_at_start = own;
+  own_at_start.head<3>() = so3::exp(own.tail<3>() * duration_s) * own.head<3>();
+  sweep.motion = constant_twist_motion(joint.pose.T_target_source, sweep.start_utime,
+                                       sweep.end_utime, own_at_start);
   sweep.points_body =
       deskew(sweep.sparse, sweep.start_utime, sweep.end_utime, sweep.motion, T_body_lidar_);
   sweep.own_twist = own;
@@ -978,7 +990,8 @@ RegistrationResult LidarInertialOdometry::search_poor_fit(
   SearchOutcome found = register_by_search(map_, source, SearchSource::kSweep, {wide},
                                            config_.poor_fit_search_m, true);
   const double before = inlier_ratio(result.T_target_source, source);
-  if (!search_accepts(found, false) || found.inlier_ratio <= before) {
+  if (!search_accepts(found, false, config_.search_confirmed_inlier_ratio) ||
+      found.inlier_ratio <= before) {
     return result;
   }
   ++counters_.poor_fits_moved;
@@ -1314,7 +1327,7 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
   const PosePrior prior{anchor_->T_predicted_restarted * T_local_body(), anchor_->information};
   const SearchOutcome found = register_by_search(anchor_->map, source, SearchSource::kLocalMap,
                                                  {prior}, anchor_->reach_m, true);
-  if (!search_accepts(found, true)) {
+  if (!search_accepts(found, true, config_.search_confirmed_inlier_ratio)) {
     if (anchor_->attempts >= config_.reanchor_attempts) {
       anchor_.reset();  // the new local map is the only one from now on
     }
@@ -1368,7 +1381,7 @@ void LidarInertialOdometry::restart_local_map() {
     anchor_->new_map_utime = state_utime_;
   }
   map_ = VoxelHashMap(config_.map);
-  have_map_insert_ = false;
+  map_inserts_ = 0;
   recent_fits_.clear();
   recent_fitness_m_.clear();
 }
@@ -1485,17 +1498,25 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
   return out;
 }
 
-bool LidarInertialOdometry::search_accepts(const SearchOutcome& found, bool weigh_by_prior) const {
+bool LidarInertialOdometry::search_accepts(const SearchOutcome& found, bool weigh_by_prior,
+                                           double confirmed_inlier_ratio) const {
   const double rival = weigh_by_prior ? found.weighted_runner_up : found.runner_up_ratio;
   return found.inlier_ratio >= config_.search_min_inlier_ratio ||
-         (found.inlier_ratio >= config_.search_confirmed_inlier_ratio &&
+         (found.inlier_ratio >= confirmed_inlier_ratio &&
           found.agreeing_starts >= config_.search_confirming_starts &&
           rival < config_.search_runner_up_fraction * found.inlier_ratio);
 }
 
+double LidarInertialOdometry::local_map_confirmed_inlier_ratio() const {
+  return map_inserts_ < config_.young_map_inserts
+             ? std::min(config_.young_map_confirmed_inlier_ratio,
+                        config_.search_confirmed_inlier_ratio)
+             : config_.search_confirmed_inlier_ratio;
+}
+
 void LidarInertialOdometry::update_map(const Sweep& sweep) {
   const Eigen::Isometry3d moved = last_insert_T_local_body_.inverse() * T_local_body();
-  if (!have_map_insert_ || moved.translation().norm() >= config_.map_insert_translation_m ||
+  if (map_inserts_ == 0 || moved.translation().norm() >= config_.map_insert_translation_m ||
       se3::rotation_angle(moved) >= config_.map_insert_rotation_rad) {
     const Eigen::Isometry3f T = T_local_body().cast<float>();
     std::vector<Eigen::Vector3f> world;
@@ -1504,7 +1525,7 @@ void LidarInertialOdometry::update_map(const Sweep& sweep) {
       world.push_back(T * p);
     }
     map_.insert(world, (T_local_body() * T_body_lidar_.translation()).cast<float>());
-    have_map_insert_ = true;
+    ++map_inserts_;
     last_insert_T_local_body_ = T_local_body();
   }
   if (++sweeps_since_cleanup_ >= 10) {

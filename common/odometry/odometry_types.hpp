@@ -119,6 +119,9 @@ struct OdometryCounters {
   // Without an IMU: after a pause, registered with the twist its own points showed
   // (own_twist_after_gap).
   int64_t own_twists_after_gaps = 0;
+  // Searches accepted below search_confirmed_inlier_ratio in a young local map
+  // (young_map_inserts).
+  int64_t young_map_searches_accepted = 0;
   int64_t lost_scans = 0;        // estimates with a lost_reason
   int64_t standstill_scans = 0;  // zero-velocity updates applied
   int64_t keyframes = 0;

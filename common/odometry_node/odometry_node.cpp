@@ -132,13 +132,15 @@ bool OdometryNode::finish() {
       "before init, {} without IMU, {} failed), {} keyframes, {} degenerate, {} searched after "
       "a pause ({} around a second guess), {} lost ({} local-map restarts, {} health resets, "
       "{} found again), {} contradicting the IMU, {} fitting worse deskewed again, {} fitting "
-      "far worse searched again ({} moved), {} after a pause along their own twist; {} "
+      "far worse searched again ({} moved), {} after a pause along their own twist, {} placed "
+      "in a young local map; {} "
       "messages refused at the door, {} restarts",
       c.scans_processed, c.scans_received, c.scans_out_of_order, c.scans_too_small,
       c.scans_before_init, c.scans_without_imu, c.scans_failed, c.keyframes, c.degenerate_scans,
       c.searched_scans, c.second_guesses, c.lost_scans, c.map_restarts, c.health_resets,
       c.reanchors, c.imu_disagreements, c.poor_fits_deskewed, c.poor_fits_searched,
-      c.poor_fits_moved, c.own_twists_after_gaps, rejected_total_, restarts_);
+      c.poor_fits_moved, c.own_twists_after_gaps, c.young_map_searches_accepted, rejected_total_,
+      restarts_);
   if (!extrinsic_check_.empty()) {
     spdlog::info("{}", extrinsic_check_);
   }
@@ -242,6 +244,7 @@ void OdometryNode::publish_status(const OdometryEstimate* e, int64_t utime_us) {
                      {"poor_fits_moved", c.poor_fits_moved},
                      {"poor_fits_deskewed", c.poor_fits_deskewed},
                      {"own_twists_after_gaps", c.own_twists_after_gaps},
+                     {"young_map_searches_accepted", c.young_map_searches_accepted},
                      {"reanchors", c.reanchors},
                      {"lost_scans", c.lost_scans},
                      {"standstill_scans", c.standstill_scans},
