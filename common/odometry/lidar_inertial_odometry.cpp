@@ -1292,6 +1292,7 @@ void LidarInertialOdometry::restart_keeping_anchor(const Matrix6d& information, 
     restart_local_map();
   } else {
     Anchor anchor{std::move(map_), information, reach_m, state_utime_, state_utime_};
+    anchor.map_inserts = map_inserts_;
     anchor.T_predicted_restarted = T_predicted_restarted;
     restart_local_map();
     anchor_ = std::move(anchor);
@@ -1339,6 +1340,7 @@ void LidarInertialOdometry::reanchor(OdometryEstimate& est) {
   merged.insert(map_, T_old_new.cast<float>());
   move_local_frame(T_old_new, anchor_->first_restart_utime);
   map_ = std::move(merged);
+  map_inserts_ += anchor_->map_inserts;
   char text[200];
   std::snprintf(text, sizeof(text),
                 "the local map of %.1f s since a restart found in the one before it (%.0f %% "

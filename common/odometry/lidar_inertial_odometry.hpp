@@ -621,6 +621,7 @@ class LidarInertialOdometry {
     int64_t first_restart_utime = 0;  // history from here on is in the new map's frame
     int64_t new_map_utime = 0;        // when the current local map started
     int attempts = 0;
+    int64_t map_inserts = 0;  // its sweeps: found again, the merged map is as old as both
     // Moves the new local map's frame to where it would be had it restarted at the
     // prediction (restart_at_answer_starts): the re-anchoring's prior is centred there.
     Eigen::Isometry3d T_predicted_restarted = Eigen::Isometry3d::Identity();
@@ -737,7 +738,7 @@ class LidarInertialOdometry {
   std::optional<Eigen::Isometry3d> T_odom_local_target_;
   std::deque<HistoryEntry> history_;
 
-  int64_t map_inserts_ = 0;  // sweeps inserted into the current local map
+  int64_t map_inserts_ = 0;  // sweeps inserted into the current local map (young_map_inserts)
   Eigen::Isometry3d last_insert_T_local_body_ = Eigen::Isometry3d::Identity();
   bool have_keyframe_ = false;
   Eigen::Isometry3d last_keyframe_T_local_body_ = Eigen::Isometry3d::Identity();
