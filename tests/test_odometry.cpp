@@ -716,9 +716,7 @@ TEST(Odometry, LidarOnlyAfterAPauseTheSearchsAnswerIsSettled) {
     config.own_twist_after_gap = own_twist;
     LidarInertialOdometry odometry(config);
     const double pause_end_s = pause_start_s + 5.0;
-    const Replayed run = replay(r, odometry, [&](const std::variant<ImuSample, LidarScan>& e) {
-      const LidarScan* scan = std::get_if<LidarScan>(&e);
-      const double t = scan == nullptr ? 0.0 : r.seconds(scan->utime_us);
+    const Replayed run = replay_sweeps(r, odometry, [&](double t) {
       return t < pause_start_s || (t > pause_end_s && t < pause_end_s + 0.5);
     });
     for (const OdometryEstimate& e : run.estimates) {
@@ -774,9 +772,7 @@ TEST(Odometry, LidarOnlyAfterAPauseTheSweepsOwnTwistIsMeasured) {
     OdometryConfig config = config_for(r, false);
     config.own_twist_after_gap = own_twist;
     LidarInertialOdometry odometry(config);
-    const Replayed run = replay(r, odometry, [&](const std::variant<ImuSample, LidarScan>& e) {
-      const LidarScan* scan = std::get_if<LidarScan>(&e);
-      const double t = scan == nullptr ? 0.0 : r.seconds(scan->utime_us);
+    const Replayed run = replay_sweeps(r, odometry, [&](double t) {
       return t < pause_start_s || (t > pause_end_s && t < pause_end_s + 1.0);
     });
     EXPECT_EQ(odometry.counters().own_twists_after_gaps, own_twist ? 1 : 0);
