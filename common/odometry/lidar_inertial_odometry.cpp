@@ -12,6 +12,7 @@
 #include "math/stopwatch.hpp"
 #include "odometry/require_positive.hpp"
 #include "odometry/scan_deskewer.hpp"
+#include "odometry/search_answer.hpp"
 #include "pointcloud/elevation_gap.hpp"
 #include "pointcloud/voxel_grid.hpp"
 #include "pointcloud/voxel_index_table.hpp"
@@ -86,6 +87,11 @@ void OdometryConfig::validate() const {
   if (uncertain_iterations < 1 || search_confirming_starts < 1) {
     throw std::invalid_argument(
         "uncertain_iterations and search_confirming_starts must be at least 1");
+  }
+  if (!(search_tie_fraction > 0 && search_tie_fraction <= 1) || !(search_tie_odds >= 1)) {
+    throw std::invalid_argument(
+        "search_tie_fraction must be in (0, 1] (1: only equal counts tie) and search_tie_odds at "
+        "least 1");
   }
   if (young_map_inserts < 0) {
     throw std::invalid_argument("young_map_inserts must be at least 0 (0: no young-map floor)");
@@ -1431,8 +1437,7 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
   const CorrelativeSearch correlative(target.points(), search);
   struct Answer {
     RegistrationResult result;
-    int inliers;
-    double prior_density;  // exp(-d^2 / 2), d: the Mahalanobis distance from its guess
+    SearchCandidate score;
     const PosePrior* guess;
   };
   std::vector<Answer> answers;
@@ -1460,20 +1465,23 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
       const int n = inliers(target, r.T_target_source, source);
       const Vector6d delta = se3::minus(r.T_target_source, guess.T_target_source);
       answers.push_back(
-          {std::move(r), n, std::exp(-0.5 * delta.dot(guess.information * delta)), &guess});
+          {std::move(r), {n, std::exp(-0.5 * delta.dot(guess.information * delta))}, &guess});
     }
   }
-  const auto best =
-      std::max_element(answers.begin(), answers.end(),
-                       [](const Answer& a, const Answer& b) { return a.inliers < b.inliers; });
+  std::vector<SearchCandidate> scores;
+  for (const Answer& answer : answers) {
+    scores.push_back(answer.score);
+  }
+  const Answer& best =
+      answers[pick_search_answer(scores, config_.search_tie_fraction, config_.search_tie_odds)];
   SearchOutcome out;
-  out.result = best->result;
-  int best_inliers = best->inliers;
+  out.result = best.result;
+  int best_inliers = best.score.inliers;
   if (settle) {
     RegistrationConfig normal_kernel = refine;
     normal_kernel.cauchy_scale_m = config_.registration.cauchy_scale_m;
     RegistrationResult settled =
-        register_point_to_plane(source, target, best->result.T_target_source, *best->guess,
+        register_point_to_plane(source, target, best.result.T_target_source, *best.guess,
                                 normal_kernel, T_body_lidar_.translation());
     const int settled_inliers = inliers(target, settled.T_target_source, source);
     if (settled_inliers >= best_inliers) {
@@ -1484,9 +1492,9 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
   const double points = static_cast<double>(source.size());
   out.inlier_ratio = best_inliers / points;
   for (const Answer& answer : answers) {
-    const double ratio = answer.inliers / points;
+    const double ratio = answer.score.inliers / points;
     const Eigen::Isometry3d d =
-        best->result.T_target_source.inverse() * answer.result.T_target_source;
+        best.result.T_target_source.inverse() * answer.result.T_target_source;
     if (d.translation().norm() <= config_.search_agree_m &&
         se3::rotation_angle(d) <= config_.search_agree_rad) {
       ++out.agreeing_starts;
@@ -1494,7 +1502,7 @@ LidarInertialOdometry::SearchOutcome LidarInertialOdometry::register_by_search(
       out.runner_up_ratio = std::max(out.runner_up_ratio, ratio);
       out.weighted_runner_up =
           std::max(out.weighted_runner_up,
-                   ratio * std::min(1.0, answer.prior_density / best->prior_density));
+                   ratio * std::min(1.0, answer.score.prior_density / best.score.prior_density));
     }
   }
   return out;
