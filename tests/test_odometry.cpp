@@ -296,6 +296,12 @@ TEST(SearchAnswer, AClearlyLikelierAnswerIsTakenOfThoseThatFitAlike) {
   EXPECT_EQ(pick_search_answer({{549, 0.55}, {530, 1.0}}, 0.95, 10.0), 0u);
   // Priors alike too (far beyond their guesses, both densities 0): the count.
   EXPECT_EQ(pick_search_answer({{530, 0.0}, {549, 0.0}}, 0.95, 10.0), 1u);
+  // Equal counts: the likelier. At the bounds (95 % of the count, 10 times as likely) the
+  // prior decides; just inside them, the count.
+  EXPECT_EQ(pick_search_answer({{500, 0.5}, {500, 1.0}}, 0.95, 10.0), 1u);
+  EXPECT_EQ(pick_search_answer({{400, 0.1}, {380, 1.0}}, 0.95, 10.0), 1u);
+  EXPECT_EQ(pick_search_answer({{400, 0.1}, {379, 1.0}}, 0.95, 10.0), 0u);
+  EXPECT_EQ(pick_search_answer({{400, 0.11}, {380, 1.0}}, 0.95, 10.0), 0u);
 }
 
 TEST(LidarInertialOdometry, LowersTheGrazingCutWhereTheLidarSamplesItsHorizonFinely) {

@@ -168,11 +168,11 @@ struct OdometryConfig {
   double search_agree_m = 0.5;
   double search_agree_rad = 0.02;
   double search_runner_up_fraction = 0.8;
-  // Answers that fit at least search_tie_fraction of the most inliers fit alike, and one
-  // that its prior makes search_tie_odds times as likely as the most inliers' is taken
-  // instead (pick_search_answer): by count alone a warped sweep (a turn begun in a 0.4 s
-  // gap, HDL-32E without an IMU) took an answer 2.2 m from the prediction, 56 times less
-  // likely than one that fitted 3 % fewer points.
+  // Answers that fit at least search_tie_fraction of the most inliers fit alike; where one
+  // of them is search_tie_odds times as likely by its prior as the most inliers', the
+  // likeliest of them is taken instead (pick_search_answer): by count alone a warped sweep (a turn
+  // begun in a 0.4 s gap, HDL-32E without an IMU) took an answer 2.2 m from the prediction, 56
+  // times less likely than one that fitted 3 % fewer points.
   double search_tie_fraction = 0.95;
   double search_tie_odds = 10.0;
   // A local map of its first few sweeps (the run's first, or a restart's) is as sparse as
@@ -595,8 +595,9 @@ class LidarInertialOdometry {
       const std::vector<Eigen::Vector3f>& points) const;
   // Registration from the starts of correlative searches around each guess (within
   // reach_m, prediction_reach_m(); each guess is the prior of its starts' refinement): the
-  // answer with the most points within search_inlier_m of the map (with `settle`, settled
-  // with the normal kernel: search_settle_after_s), and how well it is confirmed.
+  // answer pick_search_answer takes by its points within search_inlier_m of the map and its
+  // prior (search_tie_fraction, search_tie_odds; with `settle`, settled with the normal
+  // kernel: search_settle_after_s), and how well it is confirmed.
   struct SearchOutcome {
     RegistrationResult result;
     double inlier_ratio = 0.0;

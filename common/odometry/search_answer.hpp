@@ -13,11 +13,12 @@ struct SearchCandidate {
 };
 
 // The index of the answer taken (candidates must not be empty): the one that fits the most
-// points, unless another that fits at least tie_fraction of them (they fit alike) is at least
-// tie_odds times as likely by its prior; then the most likely of those. Between answers
-// that fit alike the count is noise (a warped sweep fitted 34.8 % 2.2 m from the prediction,
-// 34.4 % at it), but a prior only somewhat stronger is no reason either: after a sweep was
-// placed off, the next search's prior is off too.
+// points (of equal counts, the likelier), unless another that fits at least tie_fraction of
+// them (they fit alike) is at least tie_odds times as likely by its prior; then the most
+// likely of those. Between answers that fit alike the count is noise (a warped sweep fitted
+// 34.8 % 2.2 m from the prediction, 33.6-34.4 % near it), but a prior only somewhat
+// stronger is no reason either: after a sweep was placed off, the next search's prior is off
+// too.
 size_t pick_search_answer(const std::vector<SearchCandidate>& candidates, double tie_fraction,
                           double tie_odds);
 
